@@ -1,0 +1,82 @@
+#pragma once
+// Classical streaming filters behind one interface: push timestamped poses (joints may
+// be missing), ask for the estimate at any time >= the last input.
+// Real-time safe: push/estimate never allocate, never throw.
+// Equations, defaults and the handling of gaps: docs/FILTERS.md.
+#include "handsteady/track.hpp"
+
+#include <memory>
+#include <string>
+#include <string_view>
+
+namespace hs {
+
+class PoseFilter {
+ public:
+  virtual ~PoseFilter() = default;
+  virtual void reset() noexcept = 0;
+  // Feeds one observation. Returns false and leaves the state untouched when t is not
+  // finite or not after the last accepted time. NaN rows = joints missing in this frame;
+  // non-finite coordinates are treated as missing.
+  virtual bool push(double t, const Pose& observed) noexcept = 0;
+  // Estimate at time t (t < last input time is treated as the last input time).
+  // Joints never observed since reset are NaN.
+  // Joints whose last observation is more than FilterConfig::max_gap_s older than the
+  // last input time are NaN too (their state has expired: they re-initialise when seen again).
+  virtual void estimate(double t, Pose& out) const noexcept = 0;
+  // Last accepted time, or NaN before the first push.
+  virtual double last_time() const noexcept = 0;
+};
+
+enum class FilterMethod { Raw, OneEuro, Desp, Kalman };
+// "raw", "oneeuro", "desp", "kalman"; throws std::invalid_argument otherwise.
+FilterMethod parse_filter_method(std::string_view name);
+std::string_view filter_method_name(FilterMethod m);
+
+// Defaults are tuned lightly for hand tracking (metres, ~30 Hz, a few mm of jitter);
+// see docs/FILTERS.md.
+struct OneEuroParams {
+  double min_cutoff_hz = 1.0;
+  double beta = 2.0;          // s/m: cutoff grows by beta * speed (speed in m/s)
+  double d_cutoff_hz = 1.0;
+  // true: one cutoff per joint from the norm of the 3D derivative (Monado's variant);
+  // false: an independent filter per coordinate (the original paper).
+  bool vec3 = true;
+  // One Euro does not predict: estimate(t) is the filtered value at the last
+  // observation. true: extrapolate linearly with the filtered derivative instead.
+  bool extrapolate = false;
+};
+struct DespParams {
+  double alpha = 0.5;       // smoothing per sample period, in (0, 1)
+  double period_s = 0.0;    // 0: the running mean of observed input periods
+};
+struct KalmanParams {
+  double meas_sd_m = 0.005;         // measurement noise
+  double accel_psd = 1.0;           // white-acceleration noise q (m^2/s^3)
+  double init_speed_sd_mps = 1.0;   // prior sd of the velocity at (re)initialisation
+};
+
+struct FilterConfig {
+  FilterMethod method = FilterMethod::OneEuro;
+  OneEuroParams oneeuro;
+  DespParams desp;
+  KalmanParams kalman;
+  // A joint unseen for longer than this (relative to the last input) has no estimate
+  // and re-initialises when it reappears.
+  double max_gap_s = 0.5;
+};
+
+// Throws std::invalid_argument naming the parameter when a parameter is out of range.
+std::unique_ptr<PoseFilter> make_filter(const FilterConfig& config);
+
+// The parameters that matter for config.method, "key=value" separated by spaces, e.g.
+// "mincutoff=1 beta=2 dcutoff=1 vec3=1 max_gap_ms=500" (used for track metadata).
+std::string filter_params_summary(const FilterConfig& config);
+
+// Runs a filter causally over one hand: for row i, push (t_i, pos_i) then estimate at
+// t_i + horizon_s. Rows where the hand is not tracked stay untracked; in tracked rows a
+// missing joint gets the filter's estimate when it has one (else stays NaN).
+// The filter is reset first.
+HandSeries filter_series(PoseFilter& filter, const HandSeries& series, double horizon_s);
+
+}  // namespace hs

@@ -1,0 +1,15 @@
+#include "handsteady/error.hpp"
+
+namespace hs {
+
+std::string format_location(const SourceLocation& w) {
+  std::string s = w.file.empty() ? std::string("<input>") : w.file;
+  if (w.line > 0) s += ":" + std::to_string(w.line);
+  if (!w.field.empty()) s += ": column '" + w.field + "'";
+  return s;
+}
+
+InputError::InputError(SourceLocation where, const std::string& what)
+    : std::runtime_error(format_location(where) + ": " + what), where_(std::move(where)) {}
+
+}  // namespace hs

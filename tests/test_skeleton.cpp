@@ -1,0 +1,113 @@
+#include "handsteady/skeleton.hpp"
+
+#include "test_support.hpp"
+
+#include <set>
+
+using namespace hs;
+
+namespace {
+
+void check_normalised(const Eigen::MatrixXd& a, const std::vector<Edge>& edges, int n) {
+  CHECK(a.rows() == n);
+  CHECK((a - a.transpose()).cwiseAbs().maxCoeff() == doctest::Approx(0.0));
+  std::vector<double> deg(static_cast<size_t>(n), 0.0);
+  std::set<Edge> unique;
+  for (auto [i, j] : edges) {
+    if (unique.insert(i < j ? Edge{i, j} : Edge{j, i}).second) {
+      deg[static_cast<size_t>(i)] += 1;
+      deg[static_cast<size_t>(j)] += 1;
+    }
+  }
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      const bool edge = unique.count(i < j ? Edge{i, j} : Edge{j, i}) > 0;
+      const double expect = edge ? 1.0 / std::sqrt(deg[static_cast<size_t>(i)] * deg[static_cast<size_t>(j)]) : 0.0;
+      CHECK(a(i, j) == doctest::Approx(expect));
+    }
+}
+
+}  // namespace
+
+TEST_CASE("xr26 joint names follow XrHandJointEXT order") {
+  const auto& names = xr_joint_names();
+  CHECK(names[0] == "palm");
+  CHECK(names[1] == "wrist");
+  CHECK(names[5] == "thumb_tip");
+  CHECK(names[10] == "index_tip");
+  CHECK(names[11] == "middle_metacarpal");
+  CHECK(names[18] == "ring_intermediate");
+  CHECK(names[25] == "little_tip");
+  CHECK(xr_joint_index("little_distal") == 24);
+  CHECK(xr_joint_index("nope") == -1);
+}
+
+TEST_CASE("xr26 parent tree is a tree rooted at the wrist") {
+  const Skeleton& s = xr_hand_skeleton();
+  REQUIRE(s.joint_count() == 26);
+  CHECK(s.bones.size() == 25);
+  CHECK(s.parent[idx(Joint::Wrist)] == -1);
+  CHECK(s.parent[idx(Joint::Palm)] == idx(Joint::Wrist));
+  CHECK(s.parent[idx(Joint::ThumbMetacarpal)] == idx(Joint::Wrist));
+  CHECK(s.parent[idx(Joint::ThumbTip)] == idx(Joint::ThumbDistal));
+  CHECK(s.parent[idx(Joint::RingIntermediate)] == idx(Joint::RingProximal));
+  CHECK(s.parent[idx(Joint::LittleMetacarpal)] == idx(Joint::Wrist));
+  for (auto [p, c] : s.bones) CHECK(s.parent[c] == p);
+  // Every joint reaches the root.
+  for (int j = 0; j < 26; ++j) {
+    int k = j, steps = 0;
+    while (s.parent[k] != -1 && steps < 30) k = s.parent[k], ++steps;
+    CHECK(k == idx(Joint::Wrist));
+  }
+}
+
+TEST_CASE("xr26 symmetry edges join the same level of adjacent fingers") {
+  const Skeleton& s = xr_hand_skeleton();
+  CHECK(s.symmetry.size() == 19);  // thumb-index 4, then 5 for each of 3 finger pairs
+  std::set<Edge> sym(s.symmetry.begin(), s.symmetry.end());
+  CHECK(sym.size() == s.symmetry.size());
+  CHECK(sym.count({idx(Joint::ThumbTip), idx(Joint::IndexTip)}) == 1);
+  CHECK(sym.count({idx(Joint::ThumbDistal), idx(Joint::IndexDistal)}) == 1);
+  CHECK(sym.count({idx(Joint::MiddleIntermediate), idx(Joint::RingIntermediate)}) == 1);
+  CHECK(sym.count({idx(Joint::RingTip), idx(Joint::LittleTip)}) == 1);
+  CHECK(sym.count({idx(Joint::IndexTip), idx(Joint::RingTip)}) == 0);  // not adjacent
+  for (auto [a, b] : s.symmetry) CHECK(a < b);
+}
+
+TEST_CASE("hand partition: identity, bones, symmetry, each normalised D^-1/2 A D^-1/2") {
+  for (const Skeleton* s : {&xr_hand_skeleton(), &nyu36_skeleton(), &shrec22_skeleton()}) {
+    CAPTURE(s->name);
+    const int n = s->joint_count();
+    GraphPartition g = hand_partition(*s);
+    CHECK(g.A[0].isApprox(Eigen::MatrixXd::Identity(n, n)));
+    check_normalised(g.A[1], s->bones, n);
+    check_normalised(g.A[2], s->symmetry, n);
+  }
+}
+
+TEST_CASE("normalize_adjacency leaves zero-degree rows zero and matches a hand computation") {
+  Eigen::MatrixXd a = Eigen::MatrixXd::Zero(3, 3);
+  a(0, 1) = a(1, 0) = 1;  // path 0-1, joint 2 isolated
+  Eigen::MatrixXd n = normalize_adjacency(a);
+  CHECK(n(0, 1) == doctest::Approx(1.0));
+  CHECK(n.row(2).isZero());
+  a(1, 2) = a(2, 1) = 1;  // path 0-1-2: degrees 1, 2, 1
+  n = normalize_adjacency(a);
+  CHECK(n(0, 1) == doctest::Approx(1.0 / std::sqrt(2.0)));
+  CHECK(n(1, 2) == doctest::Approx(1.0 / std::sqrt(2.0)));
+  CHECK(n(0, 2) == 0.0);
+}
+
+TEST_CASE("reference graphs: NYU-36 and SHREC-22 edge counts") {
+  const Skeleton& nyu = nyu36_skeleton();
+  CHECK(nyu.joint_count() == 36);
+  CHECK(nyu.bones.size() == 29);      // the published "direct" list
+  CHECK(nyu.symmetry.size() == 24);   // the published "indirect" list
+  for (int j = 30; j < 36; ++j) CHECK(nyu.parent[j] == -1);  // unused NYU joints stay isolated
+  const Skeleton& sh = shrec22_skeleton();
+  CHECK(sh.joint_count() == 22);
+  CHECK(sh.bones.size() == 21);
+  CHECK(sh.symmetry.size() == 16);
+  CHECK(&skeleton_by_name("shrec22") == &sh);
+  CHECK_THROWS_AS(skeleton_by_name("mano"), std::invalid_argument);
+}
