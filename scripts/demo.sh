@@ -1,0 +1,27 @@
+#!/usr/bin/env bash
+# The main job: installs missing Debian packages, builds, and runs
+# synthesise/import -> corrupt -> filter -> eval, leaving everything in out/demo/.
+# With ../shared/data present it also runs the FPHA subject 5 comparison table.
+set -euo pipefail
+root=$(cd "$(dirname "$0")/.." && pwd)
+cd "$root"
+scripts/deps.sh build
+cmake -S . -B build/release -DCMAKE_BUILD_TYPE=Release -DHS_BUILD_TESTS=OFF >/dev/null
+cmake --build build/release -j"$(nproc)" --target handsteady
+hs=build/release/cli/handsteady
+out=${HS_DEMO_OUT:-out/demo}
+mkdir -p "$out"
+$hs synth --out "$out/clean.csv" --seconds 30 --seed 1
+$hs corrupt --in "$out/clean.csv" --out "$out/noisy.csv" --preset tracker --seed 1
+for m in raw oneeuro desp kalman; do
+  $hs filter --in "$out/noisy.csv" --out "$out/$m.csv" --method "$m"
+  echo "== $m (denoise) =="
+  $hs eval --truth "$out/clean.csv" --in "$out/$m.csv"
+done
+data=${HS_SHARED_DATA:-$root/../shared/data}
+if [ -d "$data/fpha/Subject_5" ]; then
+  scripts/fpha_table.sh "$hs" "$data" "$out/fpha"
+else
+  echo "demo: $data/fpha/Subject_5 not found; skipping the FPHA table"
+fi
+echo "demo: outputs in $out"
