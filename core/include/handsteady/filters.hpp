@@ -37,7 +37,7 @@ std::string_view filter_method_name(FilterMethod m);
 // see docs/FILTERS.md.
 struct OneEuroParams {
   double min_cutoff_hz = 1.0;
-  double beta = 2.0;          // s/m: cutoff grows by beta * speed (speed in m/s)
+  double beta = 5.0;          // s/m: cutoff grows by beta * speed (speed in m/s)
   double d_cutoff_hz = 1.0;
   // true: one cutoff per joint from the norm of the 3D derivative (Monado's variant);
   // false: an independent filter per coordinate (the original paper).
@@ -70,7 +70,7 @@ struct FilterConfig {
 std::unique_ptr<PoseFilter> make_filter(const FilterConfig& config);
 
 // The parameters that matter for config.method, "key=value" separated by spaces, e.g.
-// "mincutoff=1 beta=2 dcutoff=1 vec3=1 max_gap_ms=500" (used for track metadata).
+// "mincutoff=1 beta=5 dcutoff=1 vec3=1 extrapolate=0 max_gap_ms=500" (used for track metadata).
 std::string filter_params_summary(const FilterConfig& config);
 
 // Runs a filter causally over one hand: for row i, push (t_i, pos_i) then estimate at
