@@ -1,0 +1,327 @@
+// Classical per-joint filters (raw hold, One Euro, DESP, constant-velocity Kalman)
+// behind hs::PoseFilter. Equations and choices: docs/FILTERS.md.
+//
+// All state lives in fixed-size arrays (kJointCount joints x 3 coordinates) so that
+// push/estimate never allocate; the parameters are validated once in make_filter so that
+// push/estimate have no failure path besides rejecting a bad timestamp.
+#include "handsteady/filters.hpp"
+
+#include <fmt/format.h>
+
+#include <array>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <stdexcept>
+#include <string>
+
+namespace hs {
+
+namespace {
+
+using Vec3 = Eigen::Vector3d;
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+bool joint_finite(const Pose& p, int j) {
+  return std::isfinite(p(j, 0)) && std::isfinite(p(j, 1)) && std::isfinite(p(j, 2));
+}
+
+// Shared bookkeeping: timestamp checks, per-joint time of last observation, gap expiry.
+// Derived supplies init_joint(j, x), update_joint(j, dt, x), predict_joint(j, dt) -> Vec3
+// (dt measured from the joint's last observation), on_frame(frame_dt) and clear_state().
+template <class Derived>
+class JointwiseFilter : public PoseFilter {
+ public:
+  explicit JointwiseFilter(double max_gap_s) : max_gap_s_(max_gap_s) { clear_common(); }
+
+  void reset() noexcept override {
+    clear_common();
+    derived().clear_state();
+  }
+
+  bool push(double t, const Pose& observed) noexcept override {
+    const bool has_time = !std::isnan(last_t_);
+    if (!std::isfinite(t) || (has_time && !(t > last_t_))) return false;
+    derived().on_frame(has_time ? t - last_t_ : kNaN);
+    for (int j = 0; j < kJointCount; ++j) {
+      if (!joint_finite(observed, j)) continue;  // missing joint: keep its state
+      const Vec3 x = observed.row(j).transpose();
+      const double dt = t - t_obs_[j];
+      if (!seen_[j] || dt > max_gap_s_) {
+        derived().init_joint(j, x);
+      } else {
+        derived().update_joint(j, dt, x);
+      }
+      seen_[j] = true;
+      t_obs_[j] = t;
+    }
+    last_t_ = t;
+    return true;
+  }
+
+  void estimate(double t, Pose& out) const noexcept override {
+    // Earlier (or non-finite) requests mean "now": filters never look back in time.
+    const double te = (std::isfinite(t) && t > last_t_) ? t : last_t_;
+    for (int j = 0; j < kJointCount; ++j) {
+      if (!seen_[j] || last_t_ - t_obs_[j] > max_gap_s_) {
+        out.row(j).setConstant(kNaN);
+      } else {
+        out.row(j) = derived().predict_joint(j, te - t_obs_[j]).transpose();
+      }
+    }
+  }
+
+  double last_time() const noexcept override { return last_t_; }
+
+ protected:
+  double max_gap_s() const { return max_gap_s_; }
+
+ private:
+  Derived& derived() { return static_cast<Derived&>(*this); }
+  const Derived& derived() const { return static_cast<const Derived&>(*this); }
+  void clear_common() {
+    last_t_ = kNaN;
+    seen_.fill(false);
+    t_obs_.fill(kNaN);
+  }
+
+  double max_gap_s_;
+  double last_t_ = kNaN;
+  std::array<bool, kJointCount> seen_{};
+  std::array<double, kJointCount> t_obs_{};
+};
+
+// ---- raw: hold the last observation ----------------------------------------------------
+class RawFilter final : public JointwiseFilter<RawFilter> {
+ public:
+  explicit RawFilter(double max_gap_s) : JointwiseFilter(max_gap_s) {}
+  void clear_state() {}
+  void on_frame(double) {}
+  void init_joint(int j, const Vec3& x) { x_[j] = x; }
+  void update_joint(int j, double, const Vec3& x) { x_[j] = x; }
+  Vec3 predict_joint(int j, double) const { return x_[j]; }
+
+ private:
+  std::array<Vec3, kJointCount> x_{};
+};
+
+// ---- One Euro (Casiez et al. 2012) ------------------------------------------------------
+// Smoothing factor of a first-order low-pass with cutoff fc at sample interval te.
+double low_pass_alpha(double cutoff_hz, double te) {
+  const double tau = 1.0 / (2.0 * std::numbers::pi * cutoff_hz);
+  return 1.0 / (1.0 + tau / te);
+}
+
+class OneEuroFilter final : public JointwiseFilter<OneEuroFilter> {
+ public:
+  OneEuroFilter(const OneEuroParams& p, double max_gap_s) : JointwiseFilter(max_gap_s), p_(p) {}
+  void clear_state() {}
+  void on_frame(double) {}
+  void init_joint(int j, const Vec3& x) {
+    x_[j] = x;
+    dx_[j].setZero();
+  }
+  void update_joint(int j, double te, const Vec3& x) {
+    // Derivative against the previous *filtered* value (reference implementation since 2023).
+    const double ad = low_pass_alpha(p_.d_cutoff_hz, te);
+    dx_[j] = ad * (x - x_[j]) / te + (1.0 - ad) * dx_[j];
+    if (p_.vec3) {
+      const double a = low_pass_alpha(p_.min_cutoff_hz + p_.beta * dx_[j].norm(), te);
+      x_[j] = a * x + (1.0 - a) * x_[j];
+    } else {
+      for (int k = 0; k < 3; ++k) {
+        const double a = low_pass_alpha(p_.min_cutoff_hz + p_.beta * std::abs(dx_[j][k]), te);
+        x_[j][k] = a * x[k] + (1.0 - a) * x_[j][k];
+      }
+    }
+  }
+  Vec3 predict_joint(int j, double dt) const { return p_.extrapolate ? Vec3(x_[j] + dt * dx_[j]) : x_[j]; }
+
+ private:
+  OneEuroParams p_;
+  std::array<Vec3, kJointCount> x_{};
+  std::array<Vec3, kJointCount> dx_{};
+};
+
+// ---- DESP (LaViola 2003) -----------------------------------------------------------------
+// One update per input sample with a fixed alpha (alpha is "per sample period"); the
+// prediction horizon is converted to sample periods with the nominal period.
+class DespFilter final : public JointwiseFilter<DespFilter> {
+ public:
+  DespFilter(const DespParams& p, double max_gap_s) : JointwiseFilter(max_gap_s), p_(p) {}
+  void clear_state() {
+    period_sum_ = 0.0;
+    period_count_ = 0;
+  }
+  void on_frame(double frame_dt) {
+    // Gaps (hand lost) would inflate the mean period; they re-initialise joints anyway.
+    if (std::isfinite(frame_dt) && frame_dt <= max_gap_s()) {
+      period_sum_ += frame_dt;
+      ++period_count_;
+    }
+  }
+  void init_joint(int j, const Vec3& x) {
+    s_[j] = x;
+    s2_[j] = x;
+  }
+  void update_joint(int j, double, const Vec3& x) {
+    s_[j] = p_.alpha * x + (1.0 - p_.alpha) * s_[j];
+    s2_[j] = p_.alpha * s_[j] + (1.0 - p_.alpha) * s2_[j];
+  }
+  Vec3 predict_joint(int j, double dt) const {
+    const double period = nominal_period();
+    // Without a known period only one sample has been seen, where S == S2 and tau is moot.
+    const double tau = period > 0.0 ? dt / period : 0.0;
+    const double k = p_.alpha * tau / (1.0 - p_.alpha);
+    return (2.0 + k) * s_[j] - (1.0 + k) * s2_[j];
+  }
+  double nominal_period() const {
+    if (p_.period_s > 0.0) return p_.period_s;
+    return period_count_ > 0 ? period_sum_ / static_cast<double>(period_count_) : 0.0;
+  }
+
+ private:
+  DespParams p_;
+  double period_sum_ = 0.0;
+  long period_count_ = 0;
+  std::array<Vec3, kJointCount> s_{};
+  std::array<Vec3, kJointCount> s2_{};
+};
+
+// ---- constant-velocity Kalman, per axis ----------------------------------------------------
+// The three axes of a joint share dt, H, Q and R, so their 2x2 covariances are identical:
+// one covariance per joint is stored and updated.
+class KalmanFilter final : public JointwiseFilter<KalmanFilter> {
+ public:
+  KalmanFilter(const KalmanParams& p, double max_gap_s)
+      : JointwiseFilter(max_gap_s), p_(p), r_(p.meas_sd_m * p.meas_sd_m) {}
+  void clear_state() {}
+  void on_frame(double) {}
+  void init_joint(int j, const Vec3& x) {
+    pos_[j] = x;
+    vel_[j].setZero();
+    cov_[j] = {r_, 0.0, p_.init_speed_sd_mps * p_.init_speed_sd_mps};
+  }
+  void update_joint(int j, double dt, const Vec3& x) {
+    // Predict: F = [[1, dt], [0, 1]], Q = q [[dt^3/3, dt^2/2], [dt^2/2, dt]].
+    pos_[j] += dt * vel_[j];
+    Cov& c = cov_[j];
+    const double q = p_.accel_psd;
+    const double p00 = c.pp + 2.0 * dt * c.pv + dt * dt * c.vv + q * dt * dt * dt / 3.0;
+    const double p01 = c.pv + dt * c.vv + q * dt * dt / 2.0;
+    const double p11 = c.vv + q * dt;
+    // Update with H = [1, 0].
+    const double s = p00 + r_;
+    const double k0 = p00 / s;
+    const double k1 = p01 / s;
+    const Vec3 innovation = x - pos_[j];
+    pos_[j] += k0 * innovation;
+    vel_[j] += k1 * innovation;
+    c = {(1.0 - k0) * p00, (1.0 - k0) * p01, p11 - k1 * p01};
+  }
+  Vec3 predict_joint(int j, double dt) const { return pos_[j] + dt * vel_[j]; }
+
+ private:
+  struct Cov {
+    double pp = 0.0, pv = 0.0, vv = 0.0;
+  };
+  KalmanParams p_;
+  double r_;
+  std::array<Vec3, kJointCount> pos_{};
+  std::array<Vec3, kJointCount> vel_{};
+  std::array<Cov, kJointCount> cov_{};
+};
+
+void require(bool ok, std::string_view what, double value) {
+  if (!ok) throw std::invalid_argument(fmt::format("{}, got {}", what, value));
+}
+
+}  // namespace
+
+FilterMethod parse_filter_method(std::string_view name) {
+  for (FilterMethod m : {FilterMethod::Raw, FilterMethod::OneEuro, FilterMethod::Desp, FilterMethod::Kalman}) {
+    if (name == filter_method_name(m)) return m;
+  }
+  throw std::invalid_argument(fmt::format("unknown filter method '{}' (raw, oneeuro, desp, kalman)", name));
+}
+
+std::string_view filter_method_name(FilterMethod m) {
+  switch (m) {
+    case FilterMethod::Raw: return "raw";
+    case FilterMethod::OneEuro: return "oneeuro";
+    case FilterMethod::Desp: return "desp";
+    case FilterMethod::Kalman: return "kalman";
+  }
+  return "unknown";
+}
+
+std::unique_ptr<PoseFilter> make_filter(const FilterConfig& c) {
+  require(c.max_gap_s > 0.0 && std::isfinite(c.max_gap_s), "max gap must be positive", c.max_gap_s);
+  switch (c.method) {
+    case FilterMethod::Raw:
+      return std::make_unique<RawFilter>(c.max_gap_s);
+    case FilterMethod::OneEuro: {
+      const OneEuroParams& p = c.oneeuro;
+      require(p.min_cutoff_hz > 0.0 && std::isfinite(p.min_cutoff_hz), "One Euro mincutoff must be positive (Hz)",
+              p.min_cutoff_hz);
+      require(p.beta >= 0.0 && std::isfinite(p.beta), "One Euro beta must be >= 0", p.beta);
+      require(p.d_cutoff_hz > 0.0 && std::isfinite(p.d_cutoff_hz), "One Euro dcutoff must be positive (Hz)",
+              p.d_cutoff_hz);
+      return std::make_unique<OneEuroFilter>(p, c.max_gap_s);
+    }
+    case FilterMethod::Desp: {
+      const DespParams& p = c.desp;
+      require(p.alpha > 0.0 && p.alpha < 1.0, "DESP alpha must be in (0, 1)", p.alpha);
+      require(p.period_s >= 0.0 && std::isfinite(p.period_s), "DESP period must be >= 0 (0 = observed mean)",
+              p.period_s);
+      return std::make_unique<DespFilter>(p, c.max_gap_s);
+    }
+    case FilterMethod::Kalman: {
+      const KalmanParams& p = c.kalman;
+      require(p.meas_sd_m > 0.0 && std::isfinite(p.meas_sd_m), "Kalman measurement sd must be positive (m)",
+              p.meas_sd_m);
+      require(p.accel_psd > 0.0 && std::isfinite(p.accel_psd), "Kalman acceleration PSD must be positive",
+              p.accel_psd);
+      require(p.init_speed_sd_mps > 0.0 && std::isfinite(p.init_speed_sd_mps),
+              "Kalman initial speed sd must be positive (m/s)", p.init_speed_sd_mps);
+      return std::make_unique<KalmanFilter>(p, c.max_gap_s);
+    }
+  }
+  throw std::invalid_argument("unknown filter method");
+}
+
+std::string filter_params_summary(const FilterConfig& c) {
+  std::string s;
+  switch (c.method) {
+    case FilterMethod::Raw:
+      break;
+    case FilterMethod::OneEuro:
+      s = fmt::format("mincutoff={} beta={} dcutoff={} vec3={:d} extrapolate={:d} ", c.oneeuro.min_cutoff_hz,
+                      c.oneeuro.beta, c.oneeuro.d_cutoff_hz, c.oneeuro.vec3, c.oneeuro.extrapolate);
+      break;
+    case FilterMethod::Desp:
+      s = c.desp.period_s > 0.0 ? fmt::format("alpha={} period_ms={} ", c.desp.alpha, c.desp.period_s * 1e3)
+                                : fmt::format("alpha={} period_ms=auto ", c.desp.alpha);
+      break;
+    case FilterMethod::Kalman:
+      s = fmt::format("meas_sd_mm={} accel_psd={} init_speed_sd_mps={} ", c.kalman.meas_sd_m * 1e3,
+                      c.kalman.accel_psd, c.kalman.init_speed_sd_mps);
+      break;
+  }
+  return s + fmt::format("max_gap_ms={}", c.max_gap_s * 1e3);
+}
+
+HandSeries filter_series(PoseFilter& filter, const HandSeries& series, double horizon_s) {
+  filter.reset();
+  HandSeries out;
+  out.t = series.t;
+  out.pos.resize(series.size(), untracked_pose());
+  for (size_t i = 0; i < series.size(); ++i) {
+    const bool accepted = filter.push(series.t[i], series.pos[i]);
+    // Untracked rows stay untracked; a rejected timestamp has nothing new to report.
+    if (accepted && any_joint_tracked(series.pos[i])) filter.estimate(series.t[i] + horizon_s, out.pos[i]);
+  }
+  return out;
+}
+
+}  // namespace hs

@@ -1,0 +1,167 @@
+#include "layer_config.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <optional>
+
+namespace hs::layer {
+namespace {
+
+std::optional<std::string> env(const char* name) {
+  const char* v = std::getenv(name);
+  if (!v || !*v) return std::nullopt;
+  return std::string(v);
+}
+
+std::optional<Mode> parse_mode(std::string_view s) {
+  if (s == "off") return Mode::Off;
+  if (s == "denoise") return Mode::Denoise;
+  if (s == "predict") return Mode::Predict;
+  return std::nullopt;
+}
+
+std::optional<LogLevel> parse_level(std::string_view s) {
+  if (s == "off") return LogLevel::Off;
+  if (s == "error") return LogLevel::Error;
+  if (s == "warn") return LogLevel::Warn;
+  if (s == "info") return LogLevel::Info;
+  if (s == "debug") return LogLevel::Debug;
+  return std::nullopt;
+}
+
+std::optional<double> parse_double(const std::string& s) {
+  try {
+    size_t used = 0;
+    const double v = std::stod(s, &used);
+    if (used == s.size() && std::isfinite(v)) return v;
+  } catch (const std::exception&) {
+  }
+  return std::nullopt;
+}
+
+struct Applier {
+  LayerConfig& c;
+  std::vector<std::string>& warnings;
+
+  void mode(const std::string& v, const std::string& where) {
+    if (auto m = parse_mode(v)) c.mode = *m;
+    else warnings.push_back(where + ": unknown mode '" + v + "' (off, denoise, predict)");
+  }
+  void method(const std::string& v, const std::string& where) {
+    try {
+      c.filter.method = parse_filter_method(v);
+      c.method_given = true;
+    } catch (const std::exception& e) {
+      warnings.push_back(where + ": " + e.what());
+    }
+  }
+  void horizon_ms(double v, const std::string& where) {
+    if (v >= 0.0 && v <= 500.0) c.horizon_ns = static_cast<int64_t>(std::llround(v * 1e6));
+    else warnings.push_back(where + ": horizon must be in [0, 500] ms");
+  }
+  void log_level(const std::string& v, const std::string& where) {
+    if (auto l = parse_level(v)) c.log_level = *l;
+    else warnings.push_back(where + ": unknown log level '" + v + "' (off, error, warn, info, debug)");
+  }
+};
+
+// Optional positive/non-negative number member of a JSON object.
+void read_number(const nlohmann::json& obj, const char* key, double& dst, double min, const std::string& where,
+                 std::vector<std::string>& warnings) {
+  if (!obj.contains(key)) return;
+  const auto& v = obj[key];
+  if (!v.is_number() || !std::isfinite(v.get<double>()) || v.get<double>() < min)
+    warnings.push_back(where + ": '" + key + "' must be a number >= " + std::to_string(min));
+  else
+    dst = v.get<double>();
+}
+
+void apply_file(const std::string& path, Applier& a) {
+  std::ifstream in(path);
+  const std::string where = path;
+  if (!in) {
+    a.warnings.push_back(where + ": cannot open configuration file");
+    return;
+  }
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(in);
+  } catch (const std::exception& e) {
+    a.warnings.push_back(where + ": invalid JSON: " + e.what());
+    return;
+  }
+  if (!j.is_object()) {
+    a.warnings.push_back(where + ": expected a JSON object");
+    return;
+  }
+  auto str = [&](const char* key) -> std::optional<std::string> {
+    if (!j.contains(key)) return std::nullopt;
+    if (!j[key].is_string()) {
+      a.warnings.push_back(where + ": '" + key + "' must be a string");
+      return std::nullopt;
+    }
+    return j[key].get<std::string>();
+  };
+  if (auto v = str("mode")) a.mode(*v, where + ": mode");
+  if (auto v = str("method")) a.method(*v, where + ": method");
+  if (auto v = str("model")) a.c.model_path = *v;
+  if (auto v = str("log_level")) a.log_level(*v, where + ": log_level");
+  if (auto v = str("record_dir")) a.c.record_dir = *v;
+  if (j.contains("horizon_ms")) {
+    if (j["horizon_ms"].is_number()) a.horizon_ms(j["horizon_ms"].get<double>(), where + ": horizon_ms");
+    else a.warnings.push_back(where + ": 'horizon_ms' must be a number");
+  }
+  FilterConfig& f = a.c.filter;
+  double max_gap_ms = f.max_gap_s * 1e3;
+  read_number(j, "max_gap_ms", max_gap_ms, 1.0, where, a.warnings);
+  f.max_gap_s = max_gap_ms * 1e-3;
+  if (j.contains("oneeuro") && j["oneeuro"].is_object()) {
+    const auto& o = j["oneeuro"];
+    read_number(o, "min_cutoff_hz", f.oneeuro.min_cutoff_hz, 1e-6, where + ": oneeuro", a.warnings);
+    read_number(o, "beta", f.oneeuro.beta, 0.0, where + ": oneeuro", a.warnings);
+    read_number(o, "d_cutoff_hz", f.oneeuro.d_cutoff_hz, 1e-6, where + ": oneeuro", a.warnings);
+  }
+  if (j.contains("kalman") && j["kalman"].is_object()) {
+    const auto& o = j["kalman"];
+    read_number(o, "meas_sd_m", f.kalman.meas_sd_m, 1e-9, where + ": kalman", a.warnings);
+    read_number(o, "accel_psd", f.kalman.accel_psd, 1e-9, where + ": kalman", a.warnings);
+  }
+  if (j.contains("desp") && j["desp"].is_object())
+    read_number(j["desp"], "alpha", f.desp.alpha, 1e-6, where + ": desp", a.warnings);
+}
+
+}  // namespace
+
+std::string_view mode_name(Mode m) {
+  switch (m) {
+    case Mode::Off: return "off";
+    case Mode::Denoise: return "denoise";
+    case Mode::Predict: return "predict";
+  }
+  return "unknown";
+}
+
+LoadedConfig load_layer_config() {
+  LoadedConfig out;
+  LayerConfig& c = out.config;
+  Applier a{c, out.warnings};
+  if (auto path = env("HANDSTEADY_CONFIG")) apply_file(*path, a);
+  if (auto v = env("HANDSTEADY_MODE")) a.mode(*v, "HANDSTEADY_MODE");
+  if (auto v = env("HANDSTEADY_METHOD")) a.method(*v, "HANDSTEADY_METHOD");
+  if (auto v = env("HANDSTEADY_MODEL")) c.model_path = *v;
+  if (auto v = env("HANDSTEADY_HORIZON_MS")) {
+    if (auto d = parse_double(*v)) a.horizon_ms(*d, "HANDSTEADY_HORIZON_MS");
+    else out.warnings.push_back("HANDSTEADY_HORIZON_MS: not a number: '" + *v + "'");
+  }
+  if (auto v = env("HANDSTEADY_LOG")) a.log_level(*v, "HANDSTEADY_LOG");
+  if (auto v = env("HANDSTEADY_RECORD")) c.record_dir = *v;
+  // Each mode's default engine: smoothing without lag-compensation for denoise, a
+  // constant-velocity Kalman (which extrapolates) for predict.
+  if (!c.method_given) c.filter.method = c.mode == Mode::Predict ? FilterMethod::Kalman : FilterMethod::OneEuro;
+  return out;
+}
+
+}  // namespace hs::layer

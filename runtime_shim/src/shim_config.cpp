@@ -1,0 +1,91 @@
+#include "shim_config.hpp"
+
+#include <cstdlib>
+#include <stdexcept>
+#include <string_view>
+
+namespace hs::shim {
+namespace {
+
+std::string env(const char* name) {
+  const char* v = std::getenv(name);
+  return v ? std::string(v) : std::string();
+}
+
+double parse_number(const std::string& text, const char* var) {
+  size_t used = 0;
+  double v = 0.0;
+  try {
+    v = std::stod(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used == 0 || used != text.size()) throw std::invalid_argument(std::string(var) + ": not a number: '" + text + "'");
+  return v;
+}
+
+int64_t parse_ms(const std::string& text, const char* var) {
+  const double ms = parse_number(text, var);
+  if (!(ms > 0.0 && ms < 10'000.0)) throw std::invalid_argument(std::string(var) + ": out of range: '" + text + "'");
+  return static_cast<int64_t>(ms * 1e6 + 0.5);
+}
+
+}  // namespace
+
+ShimConfig shim_config_from_env() {
+  ShimConfig c;
+  c.track_path = env("HANDSTEADY_SHIM_TRACK");
+
+  if (std::string s = env("HANDSTEADY_SHIM_CORRUPT"); !s.empty()) {
+    const auto colon = s.rfind(':');
+    c.corrupt_preset = s.substr(0, colon);
+    if (colon != std::string::npos) {
+      const double seed = parse_number(s.substr(colon + 1), "HANDSTEADY_SHIM_CORRUPT");
+      if (seed < 0.0) throw std::invalid_argument("HANDSTEADY_SHIM_CORRUPT: negative seed");
+      c.corrupt_seed = static_cast<uint64_t>(seed);
+    }
+  }
+
+  if (std::string s = env("HANDSTEADY_SHIM_CLOCK"); !s.empty()) {
+    const auto colon = s.find(':');
+    const std::string kind = s.substr(0, colon);
+    if (kind == "real") c.real_clock = true;
+    else if (kind != "sim") throw std::invalid_argument("HANDSTEADY_SHIM_CLOCK: expected sim:<ms> or real[:<ms>], got '" + s + "'");
+    if (colon != std::string::npos) c.period_ns = parse_ms(s.substr(colon + 1), "HANDSTEADY_SHIM_CLOCK");
+  }
+  if (std::string s = env("HANDSTEADY_SHIM_LATENCY_MS"); !s.empty()) {
+    const double ms = parse_number(s, "HANDSTEADY_SHIM_LATENCY_MS");
+    if (!(ms >= 0.0 && ms < 10'000.0)) throw std::invalid_argument("HANDSTEADY_SHIM_LATENCY_MS: out of range");
+    c.latency_ns = static_cast<int64_t>(ms * 1e6 + 0.5);
+  }
+  if (c.latency_ns < 0) c.latency_ns = 2 * c.period_ns;
+
+  if (std::string s = env("HANDSTEADY_SHIM_FUTURE"); !s.empty()) {
+    if (s == "exact") c.future = FuturePolicy::Exact;
+    else if (s == "hold") c.future = FuturePolicy::Hold;
+    else throw std::invalid_argument("HANDSTEADY_SHIM_FUTURE: expected exact or hold, got '" + s + "'");
+  }
+  c.head_motion = env("HANDSTEADY_SHIM_HEAD_MOTION") == "1";
+
+  if (std::string s = env("HANDSTEADY_SHIM_FAULTS"); !s.empty()) {
+    size_t start = 0;
+    while (start <= s.size()) {
+      const size_t comma = s.find(',', start);
+      const std::string item = s.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
+      const auto colon = item.find(':');
+      if (colon == std::string::npos) throw std::invalid_argument("HANDSTEADY_SHIM_FAULTS: expected kind:prob, got '" + item + "'");
+      const std::string kind = item.substr(0, colon);
+      const double p = parse_number(item.substr(colon + 1), "HANDSTEADY_SHIM_FAULTS");
+      if (!(p >= 0.0 && p <= 1.0)) throw std::invalid_argument("HANDSTEADY_SHIM_FAULTS: probability out of [0,1]");
+      if (kind == "nan") c.faults.nan = p;
+      else if (kind == "huge") c.faults.huge = p;
+      else if (kind == "quat") c.faults.quat = p;
+      else throw std::invalid_argument("HANDSTEADY_SHIM_FAULTS: unknown fault '" + kind + "'");
+      if (comma == std::string::npos) break;
+      start = comma + 1;
+    }
+  }
+  return c;
+}
+
+}  // namespace hs::shim

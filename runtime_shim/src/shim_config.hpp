@@ -1,0 +1,35 @@
+#pragma once
+// Environment configuration of the replay runtime (read at each xrCreateInstance).
+// See docs/OPENXR_LAYER.md "Replay runtime" for the variables and their meaning.
+#include <cstdint>
+#include <string>
+
+namespace hs::shim {
+
+enum class FuturePolicy {
+  Exact,  // a query for time T answers the recorded track at T, even in the future
+  Hold,   // T later than the simulated "now" answers the track at now (a runtime without prediction)
+};
+
+struct FaultRates {
+  double nan = 0.0;   // per joint per answered time: position becomes NaN (flags stay valid)
+  double huge = 0.0;  // position becomes 1e30
+  double quat = 0.0;  // orientation becomes (0,0,0,0)
+};
+
+struct ShimConfig {
+  std::string track_path;        // HANDSTEADY_SHIM_TRACK (empty: hands never active)
+  std::string corrupt_preset;    // HANDSTEADY_SHIM_CORRUPT=<preset>:<seed>
+  uint64_t corrupt_seed = 0;
+  bool real_clock = false;       // HANDSTEADY_SHIM_CLOCK=sim:<period_ms> | real[:<period_ms>]
+  int64_t period_ns = 11'111'111;  // 90 Hz
+  int64_t latency_ns = -1;       // HANDSTEADY_SHIM_LATENCY_MS (display time - now); -1: 2 periods
+  FuturePolicy future = FuturePolicy::Exact;  // HANDSTEADY_SHIM_FUTURE=exact|hold
+  bool head_motion = false;      // HANDSTEADY_SHIM_HEAD_MOTION=1
+  FaultRates faults;             // HANDSTEADY_SHIM_FAULTS=nan:<p>,huge:<p>,quat:<p>
+};
+
+// Throws std::invalid_argument naming the variable on malformed values.
+ShimConfig shim_config_from_env();
+
+}  // namespace hs::shim

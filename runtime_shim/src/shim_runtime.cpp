@@ -1,0 +1,781 @@
+// HandSteady replay runtime: a minimal headless OpenXR runtime that replays a track CSV
+// as XR_EXT_hand_tracking for both hands. Meant for tests and benchmarks of the layer:
+// deterministic simulated clock, reference spaces with optional head motion, optional
+// live corruption and injected faults. Only xrNegotiateLoaderRuntimeInterface is exported.
+#define XR_USE_TIMESPEC
+#include <time.h>
+
+#include <openxr/openxr.h>
+#include <openxr/openxr_platform.h>
+#include <openxr/openxr_reflection.h>
+
+#include "handsteady/corrupt.hpp"
+#include "handsteady/track.hpp"
+#include "handsteady/track_ops.hpp"
+#include "handsteady_xr/loader_negotiation.hpp"
+#include "handsteady_xr/xr_math.hpp"
+#include "shim_config.hpp"
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <deque>
+#include <limits>
+#include <map>
+#include <mutex>
+#include <numbers>
+#include <optional>
+#include <string_view>
+#include <thread>
+
+namespace hs::shim {
+namespace {
+
+using xr::Rigid;
+constexpr XrTime kSimEpochNs = 1'000'000'000;  // XrTime of the track's first row in sim mode
+constexpr uint64_t kHandTrackingSystem = 1;
+
+struct SessionData {
+  XrSessionState state = XR_SESSION_STATE_UNKNOWN;
+  bool running = false;
+  bool frame_waited = false;
+  bool frame_begun = false;
+};
+struct SpaceData {
+  XrSession session;
+  XrReferenceSpaceType type;
+  Rigid pose_in_ref;
+};
+struct TrackerData {
+  XrSession session;
+  XrHandEXT hand;
+};
+
+struct Runtime {
+  std::mutex mu;
+  bool live = false;
+  XrInstance instance = XR_NULL_HANDLE;
+  bool ext_hand = false, ext_headless = false, ext_timespec = false;
+  ShimConfig cfg;
+  std::array<HandSeries, 2> hands;
+  double t0 = 0.0;             // track time mapped to epoch
+  XrTime epoch = kSimEpochNs;  // XrTime of t0
+  XrTime sim_now = kSimEpochNs;
+  uint64_t next_handle = 0x100;
+  std::map<uint64_t, SessionData> sessions;
+  std::map<uint64_t, SpaceData> spaces;
+  std::map<uint64_t, TrackerData> trackers;
+  std::deque<XrEventDataBuffer> events;
+};
+Runtime& rt() {
+  static Runtime r;
+  return r;
+}
+
+template <class H>
+uint64_t id_of(H h) { return reinterpret_cast<uint64_t>(h); }
+template <class H>
+H handle_of(uint64_t id) { return reinterpret_cast<H>(id); }
+
+XrTime monotonic_ns() {
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<XrTime>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
+}
+
+// Current runtime time (caller holds the lock).
+XrTime now_locked(const Runtime& r) { return r.cfg.real_clock ? monotonic_ns() : r.sim_now; }
+
+double track_time(const Runtime& r, XrTime t) { return r.t0 + static_cast<double>(t - r.epoch) * 1e-9; }
+
+Rigid yaw_pitch(double yaw, double pitch, const Eigen::Vector3d& pos) {
+  Rigid r = Rigid::Identity();
+  r.linear() = (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitY()) * Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitX()))
+                   .toRotationMatrix();
+  r.translation() = pos;
+  return r;
+}
+
+// Pose of a reference space in the world (= LOCAL) frame at track time t (s).
+Rigid reference_in_world(const Runtime& r, XrReferenceSpaceType type, double t) {
+  constexpr double tau = 2.0 * std::numbers::pi;
+  switch (type) {
+    case XR_REFERENCE_SPACE_TYPE_STAGE:
+      // The floor, 1.5 m below and turned 30 degrees, so conversions are not trivial.
+      return yaw_pitch(tau / 12.0, 0.0, Eigen::Vector3d(0.2, -1.5, 0.3));
+    case XR_REFERENCE_SPACE_TYPE_VIEW:
+      if (!r.cfg.head_motion) return Rigid::Identity();
+      // Smooth head motion: a few cm of sway and +-20 degrees of yaw.
+      return yaw_pitch(0.35 * std::sin(tau * 0.25 * t), 0.15 * std::sin(tau * 0.35 * t),
+                       Eigen::Vector3d(0.08 * std::sin(tau * 0.4 * t), 0.03 * std::sin(tau * 0.7 * t),
+                                       0.05 * std::sin(tau * 0.3 * t)));
+    default:
+      return Rigid::Identity();
+  }
+}
+
+Rigid space_in_world(const Runtime& r, const SpaceData& s, double t) {
+  return reference_in_world(r, s.type, t) * s.pose_in_ref;
+}
+
+// Joint frames from positions: -Z along the joint's bone, +Y out of the back of the hand.
+std::array<Eigen::Matrix3d, kJointCount> joint_frames(const Pose& p, XrHandEXT hand) {
+  std::array<Eigen::Matrix3d, kJointCount> out;
+  const Eigen::Vector3d wrist = p.row(idx(Joint::Wrist)).transpose();
+  const Eigen::Vector3d index = p.row(idx(Joint::IndexProximal)).transpose();
+  const Eigen::Vector3d little = p.row(idx(Joint::LittleProximal)).transpose();
+  Eigen::Vector3d back = (little - wrist).cross(index - wrist);
+  if (hand == XR_HAND_LEFT_EXT) back = -back;
+  for (int j = 0; j < kJointCount; ++j) {
+    out[j].setIdentity();
+    const auto [a, b] = xr::kJointBone[j];
+    const Eigen::Vector3d bone = (p.row(b) - p.row(a)).transpose();
+    if (!bone.allFinite() || bone.norm() < 1e-9 || !back.allFinite()) continue;
+    const Eigen::Vector3d z = -bone.normalized();
+    Eigen::Vector3d y = back - back.dot(z) * z;
+    if (y.norm() < 1e-9) continue;
+    y.normalize();
+    out[j].col(0) = y.cross(z);
+    out[j].col(1) = y;
+    out[j].col(2) = z;
+  }
+  return out;
+}
+
+// The replayed hand at XrTime t in world coordinates (untracked joints NaN).
+Pose hand_at(const Runtime& r, XrHandEXT hand, XrTime t) {
+  const auto& series = r.hands[hand == XR_HAND_LEFT_EXT ? 0 : 1];
+  if (series.empty()) return untracked_pose();
+  if (r.cfg.future == FuturePolicy::Hold) t = std::min(t, now_locked(r));
+  return interpolate_pose(series, track_time(r, t));
+}
+
+// Deterministic uniform [0,1) from (time, hand, joint, salt): faults repeat for repeated queries.
+double fault_draw(XrTime t, int hand, int joint, uint64_t salt) {
+  uint64_t x = static_cast<uint64_t>(t) * 0x9E3779B97F4A7C15ull ^ (static_cast<uint64_t>(hand) << 40) ^
+               (static_cast<uint64_t>(joint) << 48) ^ salt;
+  x ^= x >> 30; x *= 0xBF58476D1CE4E5B9ull;
+  x ^= x >> 27; x *= 0x94D049BB133111EBull;
+  x ^= x >> 31;
+  return static_cast<double>(x >> 11) * 0x1.0p-53;
+}
+
+void push_state_event(Runtime& r, XrSession session, XrSessionState state, XrTime time) {
+  XrEventDataBuffer buf{};
+  auto* ev = reinterpret_cast<XrEventDataSessionStateChanged*>(&buf);
+  ev->type = XR_TYPE_EVENT_DATA_SESSION_STATE_CHANGED;
+  ev->next = nullptr;
+  ev->session = session;
+  ev->state = state;
+  ev->time = time;
+  r.events.push_back(buf);
+  r.sessions[id_of(session)].state = state;
+}
+
+template <class T>
+XrResult two_call(uint32_t capacity, uint32_t* count, T* out, const T* values, uint32_t n) {
+  if (!count) return XR_ERROR_VALIDATION_FAILURE;
+  *count = n;
+  if (capacity == 0) return XR_SUCCESS;
+  if (capacity < n) return XR_ERROR_SIZE_INSUFFICIENT;
+  if (!out) return XR_ERROR_VALIDATION_FAILURE;
+  std::copy(values, values + n, out);
+  return XR_SUCCESS;
+}
+
+void copy_name(char* dst, size_t size, std::string_view src) {
+  const size_t n = std::min(size - 1, src.size());
+  std::memcpy(dst, src.data(), n);
+  dst[n] = '\0';
+}
+
+// ---------------------------------------------------------------- instance
+
+struct ExtensionInfo {
+  const char* name;
+  uint32_t version;
+};
+constexpr std::array<ExtensionInfo, 3> kExtensions = {{
+    {XR_EXT_HAND_TRACKING_EXTENSION_NAME, XR_EXT_hand_tracking_SPEC_VERSION},
+    {XR_MND_HEADLESS_EXTENSION_NAME, XR_MND_headless_SPEC_VERSION},
+    {XR_KHR_CONVERT_TIMESPEC_TIME_EXTENSION_NAME, XR_KHR_convert_timespec_time_SPEC_VERSION},
+}};
+
+XRAPI_ATTR XrResult XRAPI_CALL EnumerateInstanceExtensionProperties(const char* layerName, uint32_t capacity,
+                                                                    uint32_t* count, XrExtensionProperties* props) {
+  if (layerName && *layerName) return XR_ERROR_API_LAYER_NOT_PRESENT;
+  if (!count) return XR_ERROR_VALIDATION_FAILURE;
+  *count = static_cast<uint32_t>(kExtensions.size());
+  if (capacity == 0) return XR_SUCCESS;
+  if (capacity < kExtensions.size()) return XR_ERROR_SIZE_INSUFFICIENT;
+  for (size_t i = 0; i < kExtensions.size(); ++i) {
+    props[i].type = XR_TYPE_EXTENSION_PROPERTIES;
+    props[i].next = nullptr;
+    copy_name(props[i].extensionName, XR_MAX_EXTENSION_NAME_SIZE, kExtensions[i].name);
+    props[i].extensionVersion = kExtensions[i].version;
+  }
+  return XR_SUCCESS;
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL EnumerateApiLayerProperties(uint32_t, uint32_t* count, XrApiLayerProperties*) {
+  if (!count) return XR_ERROR_VALIDATION_FAILURE;
+  *count = 0;
+  return XR_SUCCESS;
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL CreateInstance(const XrInstanceCreateInfo* info, XrInstance* instance) {
+  if (!info || !instance || info->type != XR_TYPE_INSTANCE_CREATE_INFO) return XR_ERROR_VALIDATION_FAILURE;
+  Runtime& r = rt();
+  std::lock_guard lock(r.mu);
+  if (r.live) return XR_ERROR_LIMIT_REACHED;
+  bool hand = false, headless = false, timespec = false;
+  for (uint32_t i = 0; i < info->enabledExtensionCount; ++i) {
+    const std::string_view name = info->enabledExtensionNames[i];
+    if (name == XR_EXT_HAND_TRACKING_EXTENSION_NAME) hand = true;
+    else if (name == XR_MND_HEADLESS_EXTENSION_NAME) headless = true;
+    else if (name == XR_KHR_CONVERT_TIMESPEC_TIME_EXTENSION_NAME) timespec = true;
+    else return XR_ERROR_EXTENSION_NOT_PRESENT;
+  }
+  try {
+    r.cfg = shim_config_from_env();
+    r.hands = {};
+    if (!r.cfg.track_path.empty()) {
+      Track track = read_track_csv(r.cfg.track_path);
+      if (!r.cfg.corrupt_preset.empty())
+        track = corrupt_track(track, corruption_preset(r.cfg.corrupt_preset), r.cfg.corrupt_seed);
+      r.hands = {hand_series(track, Hand::Left), hand_series(track, Hand::Right)};
+    }
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "handsteady replay runtime: %s\n", e.what());
+    return XR_ERROR_RUNTIME_FAILURE;
+  }
+  double t0 = std::numeric_limits<double>::infinity();
+  for (const auto& s : r.hands)
+    if (!s.empty()) t0 = std::min(t0, s.t.front());
+  r.t0 = std::isfinite(t0) ? t0 : 0.0;
+  r.epoch = r.cfg.real_clock ? monotonic_ns() : kSimEpochNs;
+  r.sim_now = r.epoch;
+  r.ext_hand = hand;
+  r.ext_headless = headless;
+  r.ext_timespec = timespec;
+  r.sessions.clear();
+  r.spaces.clear();
+  r.trackers.clear();
+  r.events.clear();
+  r.instance = handle_of<XrInstance>(r.next_handle++);
+  r.live = true;
+  *instance = r.instance;
+  return XR_SUCCESS;
+}
+
+bool instance_ok(const Runtime& r, XrInstance instance) { return r.live && instance == r.instance; }
+
+XRAPI_ATTR XrResult XRAPI_CALL DestroyInstance(XrInstance instance) {
+  Runtime& r = rt();
+  std::lock_guard lock(r.mu);
+  if (!instance_ok(r, instance)) return XR_ERROR_HANDLE_INVALID;
+  r.live = false;
+  r.sessions.clear();
+  r.spaces.clear();
+  r.trackers.clear();
+  r.events.clear();
+  r.hands = {};
+  return XR_SUCCESS;
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL GetInstanceProperties(XrInstance instance, XrInstanceProperties* props) {
+  Runtime& r = rt();
+  std::lock_guard lock(r.mu);
+  if (!instance_ok(r, instance)) return XR_ERROR_HANDLE_INVALID;
+  if (!props || props->type != XR_TYPE_INSTANCE_PROPERTIES) return XR_ERROR_VALIDATION_FAILURE;
+  props->runtimeVersion = XR_MAKE_VERSION(0, 1, 0);
+  copy_name(props->runtimeName, XR_MAX_RUNTIME_NAME_SIZE, "HandSteady replay runtime");
+  return XR_SUCCESS;
+}
+
+template <class E>
+XrResult enum_to_string(XrInstance instance, E value, char* buffer, size_t size, const char* prefix) {
+  Runtime& r = rt();
+  {
+    std::lock_guard lock(r.mu);
+    if (!instance_ok(r, instance)) return XR_ERROR_HANDLE_INVALID;
+  }
+  if (!buffer) return XR_ERROR_VALIDATION_FAILURE;
+  const char* name = nullptr;
+  if constexpr (std::is_same_v<E, XrResult>) {
+#define HS_CASE(n, v) \
+  case n: name = #n; break;
+    switch (value) { XR_LIST_ENUM_XrResult(HS_CASE) default: break; }
+  } else {
+    switch (value) { XR_LIST_ENUM_XrStructureType(HS_CASE) default: break; }
+#undef HS_CASE
+  }
+  if (name) copy_name(buffer, size, name);
+  else std::snprintf(buffer, size, "%s_%d", prefix, static_cast<int>(value));
+  return XR_SUCCESS;
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL ResultToString(XrInstance instance, XrResult value, char buffer[XR_MAX_RESULT_STRING_SIZE]) {
+  return enum_to_string(instance, value, buffer, XR_MAX_RESULT_STRING_SIZE,
+                        value < 0 ? "XR_UNKNOWN_FAILURE" : "XR_UNKNOWN_SUCCESS");
+}
+XRAPI_ATTR XrResult XRAPI_CALL StructureTypeToString(XrInstance instance, XrStructureType value,
+                                                     char buffer[XR_MAX_STRUCTURE_NAME_SIZE]) {
+  return enum_to_string(instance, value, buffer, XR_MAX_STRUCTURE_NAME_SIZE, "XR_UNKNOWN_STRUCTURE_TYPE");
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL ConvertTimespecTimeToTimeKHR(XrInstance instance, const timespec* ts, XrTime* time) {
+  Runtime& r = rt();
+  std::lock_guard lock(r.mu);
+  if (!instance_ok(r, instance)) return XR_ERROR_HANDLE_INVALID;
+  if (!ts || !time) return XR_ERROR_VALIDATION_FAILURE;
+  // XrTime counts nanoseconds of CLOCK_MONOTONIC (real clock) or of the simulated clock.
+  *time = static_cast<XrTime>(ts->tv_sec) * 1'000'000'000 + ts->tv_nsec;
+  return *time > 0 ? XR_SUCCESS : XR_ERROR_TIME_INVALID;
+}
+XRAPI_ATTR XrResult XRAPI_CALL ConvertTimeToTimespecTimeKHR(XrInstance instance, XrTime time, timespec* ts) {
+  Runtime& r = rt();
+  std::lock_guard lock(r.mu);
+  if (!instance_ok(r, instance)) return XR_ERROR_HANDLE_INVALID;
+  if (!ts) return XR_ERROR_VALIDATION_FAILURE;
+  if (time <= 0) return XR_ERROR_TIME_INVALID;
+  ts->tv_sec = static_cast<time_t>(time / 1'000'000'000);
+  ts->tv_nsec = static_cast<long>(time % 1'000'000'000);
+  return XR_SUCCESS;
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL PollEvent(XrInstance instance, XrEventDataBuffer* event) {
+  Runtime& r = rt();
+  std::lock_guard lock(r.mu);
+  if (!instance_ok(r, instance)) return XR_ERROR_HANDLE_INVALID;
+  if (!event) return XR_ERROR_VALIDATION_FAILURE;
+  if (r.events.empty()) return XR_EVENT_UNAVAILABLE;
+  *event = r.events.front();
+  r.events.pop_front();
+  return XR_SUCCESS;
+}
+
+// ---------------------------------------------------------------- system
+
+XRAPI_ATTR XrResult XRAPI_CALL GetSystem(XrInstance instance, const XrSystemGetInfo* info, XrSystemId* system) {
+  Runtime& r = rt();
+  std::lock_guard lock(r.mu);
+  if (!instance_ok(r, instance)) return XR_ERROR_HANDLE_INVALID;
+  if (!info || !system || info->type != XR_TYPE_SYSTEM_GET_INFO) return XR_ERROR_VALIDATION_FAILURE;
+  if (info->formFactor != XR_FORM_FACTOR_HEAD_MOUNTED_DISPLAY) return XR_ERROR_FORM_FACTOR_UNSUPPORTED;
+  *system = kHandTrackingSystem;
+  return XR_SUCCESS;
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL GetSystemProperties(XrInstance instance, XrSystemId system, XrSystemProperties* props) {
+  Runtime& r = rt();
+  std::lock_guard lock(r.mu);
+  if (!instance_ok(r, instance)) return XR_ERROR_HANDLE_INVALID;
+  if (system != kHandTrackingSystem) return XR_ERROR_SYSTEM_INVALID;
+  if (!props || props->type != XR_TYPE_SYSTEM_PROPERTIES) return XR_ERROR_VALIDATION_FAILURE;
+  props->systemId = system;
+  props->vendorId = 0;
+  copy_name(props->systemName, XR_MAX_SYSTEM_NAME_SIZE, "HandSteady replay");
+  props->graphicsProperties = {0, 0, 0};
+  props->trackingProperties = {XR_FALSE, XR_TRUE};
+  for (auto* s = static_cast<XrBaseOutStructure*>(props->next); s; s = s->next)
+    if (s->type == XR_TYPE_SYSTEM_HAND_TRACKING_PROPERTIES_EXT)
+      reinterpret_cast<XrSystemHandTrackingPropertiesEXT*>(s)->supportsHandTracking = r.ext_hand ? XR_TRUE : XR_FALSE;
+  return XR_SUCCESS;
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL EnumerateViewConfigurations(XrInstance instance, XrSystemId system, uint32_t,
+                                                           uint32_t* count, XrViewConfigurationType*) {
+  Runtime& r = rt();
+  std::lock_guard lock(r.mu);
+  if (!instance_ok(r, instance)) return XR_ERROR_HANDLE_INVALID;
+  if (system != kHandTrackingSystem) return XR_ERROR_SYSTEM_INVALID;
+  if (!count) return XR_ERROR_VALIDATION_FAILURE;
+  *count = 0;  // headless: nothing to render
+  return XR_SUCCESS;
+}
+
+// ---------------------------------------------------------------- session
+
+SessionData* find_session(Runtime& r, XrSession s) {
+  auto it = r.sessions.find(id_of(s));
+  return it == r.sessions.end() ? nullptr : &it->second;
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL CreateSession(XrInstance instance, const XrSessionCreateInfo* info, XrSession* session) {
+  Runtime& r = rt();
+  std::lock_guard lock(r.mu);
+  if (!instance_ok(r, instance)) return XR_ERROR_HANDLE_INVALID;
+  if (!info || !session || info->type != XR_TYPE_SESSION_CREATE_INFO) return XR_ERROR_VALIDATION_FAILURE;
+  if (info->systemId != kHandTrackingSystem) return XR_ERROR_SYSTEM_INVALID;
+  if (!r.ext_headless || info->next) return XR_ERROR_GRAPHICS_DEVICE_INVALID;  // headless only
+  const XrSession s = handle_of<XrSession>(r.next_handle++);
+  r.sessions[id_of(s)] = SessionData{};
+  push_state_event(r, s, XR_SESSION_STATE_IDLE, now_locked(r));
+  push_state_event(r, s, XR_SESSION_STATE_READY, now_locked(r));
+  *session = s;
+  return XR_SUCCESS;
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL DestroySession(XrSession session) {
+  Runtime& r = rt();
+  std::lock_guard lock(r.mu);
+  if (!find_session(r, session)) return XR_ERROR_HANDLE_INVALID;
+  std::erase_if(r.spaces, [&](const auto& kv) { return kv.second.session == session; });
+  std::erase_if(r.trackers, [&](const auto& kv) { return kv.second.session == session; });
+  std::erase_if(r.events, [&](const XrEventDataBuffer& e) {
+    return e.type == XR_TYPE_EVENT_DATA_SESSION_STATE_CHANGED &&
+           reinterpret_cast<const XrEventDataSessionStateChanged*>(&e)->session == session;
+  });
+  r.sessions.erase(id_of(session));
+  return XR_SUCCESS;
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL BeginSession(XrSession session, const XrSessionBeginInfo* info) {
+  Runtime& r = rt();
+  std::lock_guard lock(r.mu);
+  SessionData* s = find_session(r, session);
+  if (!s) return XR_ERROR_HANDLE_INVALID;
+  if (!info || info->type != XR_TYPE_SESSION_BEGIN_INFO) return XR_ERROR_VALIDATION_FAILURE;
+  if (s->running) return XR_ERROR_SESSION_RUNNING;
+  if (s->state != XR_SESSION_STATE_READY) return XR_ERROR_SESSION_NOT_READY;
+  s->running = true;
+  const XrTime t = now_locked(r);
+  push_state_event(r, session, XR_SESSION_STATE_SYNCHRONIZED, t);
+  push_state_event(r, session, XR_SESSION_STATE_VISIBLE, t);
+  push_state_event(r, session, XR_SESSION_STATE_FOCUSED, t);
+  return XR_SUCCESS;
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL RequestExitSession(XrSession session) {
+  Runtime& r = rt();
+  std::lock_guard lock(r.mu);
+  SessionData* s = find_session(r, session);
+  if (!s) return XR_ERROR_HANDLE_INVALID;
+  if (!s->running) return XR_ERROR_SESSION_NOT_RUNNING;
+  const XrTime t = now_locked(r);
+  push_state_event(r, session, XR_SESSION_STATE_VISIBLE, t);
+  push_state_event(r, session, XR_SESSION_STATE_SYNCHRONIZED, t);
+  push_state_event(r, session, XR_SESSION_STATE_STOPPING, t);
+  return XR_SUCCESS;
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL EndSession(XrSession session) {
+  Runtime& r = rt();
+  std::lock_guard lock(r.mu);
+  SessionData* s = find_session(r, session);
+  if (!s) return XR_ERROR_HANDLE_INVALID;
+  if (!s->running) return XR_ERROR_SESSION_NOT_RUNNING;
+  if (s->state != XR_SESSION_STATE_STOPPING) return XR_ERROR_SESSION_NOT_STOPPING;
+  s->running = false;
+  const XrTime t = now_locked(r);
+  push_state_event(r, session, XR_SESSION_STATE_IDLE, t);
+  push_state_event(r, session, XR_SESSION_STATE_EXITING, t);
+  return XR_SUCCESS;
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL WaitFrame(XrSession session, const XrFrameWaitInfo* info, XrFrameState* state) {
+  Runtime& r = rt();
+  std::unique_lock lock(r.mu);
+  SessionData* s = find_session(r, session);
+  if (!s) return XR_ERROR_HANDLE_INVALID;
+  if ((info && info->type != XR_TYPE_FRAME_WAIT_INFO) || !state || state->type != XR_TYPE_FRAME_STATE)
+    return XR_ERROR_VALIDATION_FAILURE;
+  if (!s->running) return XR_ERROR_SESSION_NOT_RUNNING;
+  XrTime now = 0;
+  if (r.cfg.real_clock) {
+    // Sleep to the next period boundary since the epoch (without holding the lock).
+    const int64_t period = r.cfg.period_ns;
+    const XrTime epoch = r.epoch;
+    lock.unlock();
+    const XrTime t = monotonic_ns();
+    const XrTime next = epoch + ((t - epoch) / period + 1) * period;
+    std::this_thread::sleep_for(std::chrono::nanoseconds(next - t));
+    lock.lock();
+    s = find_session(r, session);
+    if (!s) return XR_ERROR_HANDLE_INVALID;
+    now = monotonic_ns();
+  } else {
+    r.sim_now += r.cfg.period_ns;
+    now = r.sim_now;
+  }
+  s->frame_waited = true;
+  state->predictedDisplayTime = now + r.cfg.latency_ns;
+  state->predictedDisplayPeriod = r.cfg.period_ns;
+  state->shouldRender = XR_FALSE;
+  return XR_SUCCESS;
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL BeginFrame(XrSession session, const XrFrameBeginInfo* info) {
+  Runtime& r = rt();
+  std::lock_guard lock(r.mu);
+  SessionData* s = find_session(r, session);
+  if (!s) return XR_ERROR_HANDLE_INVALID;
+  if (info && info->type != XR_TYPE_FRAME_BEGIN_INFO) return XR_ERROR_VALIDATION_FAILURE;
+  if (!s->running) return XR_ERROR_SESSION_NOT_RUNNING;
+  if (!s->frame_waited) return XR_ERROR_CALL_ORDER_INVALID;
+  s->frame_waited = false;
+  const bool discarded = s->frame_begun;
+  s->frame_begun = true;
+  return discarded ? XR_FRAME_DISCARDED : XR_SUCCESS;
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL EndFrame(XrSession session, const XrFrameEndInfo* info) {
+  Runtime& r = rt();
+  std::lock_guard lock(r.mu);
+  SessionData* s = find_session(r, session);
+  if (!s) return XR_ERROR_HANDLE_INVALID;
+  if (!info || info->type != XR_TYPE_FRAME_END_INFO) return XR_ERROR_VALIDATION_FAILURE;
+  if (!s->running) return XR_ERROR_SESSION_NOT_RUNNING;
+  if (!s->frame_begun) return XR_ERROR_CALL_ORDER_INVALID;
+  if (info->displayTime <= 0) return XR_ERROR_TIME_INVALID;
+  s->frame_begun = false;
+  return XR_SUCCESS;
+}
+
+// ---------------------------------------------------------------- spaces
+
+constexpr std::array<XrReferenceSpaceType, 3> kSpaceTypes = {
+    XR_REFERENCE_SPACE_TYPE_VIEW, XR_REFERENCE_SPACE_TYPE_LOCAL, XR_REFERENCE_SPACE_TYPE_STAGE};
+
+XRAPI_ATTR XrResult XRAPI_CALL EnumerateReferenceSpaces(XrSession session, uint32_t capacity, uint32_t* count,
+                                                        XrReferenceSpaceType* spaces) {
+  Runtime& r = rt();
+  std::lock_guard lock(r.mu);
+  if (!find_session(r, session)) return XR_ERROR_HANDLE_INVALID;
+  return two_call(capacity, count, spaces, kSpaceTypes.data(), static_cast<uint32_t>(kSpaceTypes.size()));
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL CreateReferenceSpace(XrSession session, const XrReferenceSpaceCreateInfo* info,
+                                                    XrSpace* space) {
+  Runtime& r = rt();
+  std::lock_guard lock(r.mu);
+  if (!find_session(r, session)) return XR_ERROR_HANDLE_INVALID;
+  if (!info || !space || info->type != XR_TYPE_REFERENCE_SPACE_CREATE_INFO) return XR_ERROR_VALIDATION_FAILURE;
+  if (std::find(kSpaceTypes.begin(), kSpaceTypes.end(), info->referenceSpaceType) == kSpaceTypes.end())
+    return XR_ERROR_REFERENCE_SPACE_UNSUPPORTED;
+  const XrQuaternionf& q = info->poseInReferenceSpace.orientation;
+  const float n = q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w;
+  if (!xr::finite(info->poseInReferenceSpace.position) || !std::isfinite(n) || std::fabs(n - 1.0f) > 1e-3f)
+    return XR_ERROR_POSE_INVALID;
+  const XrSpace s = handle_of<XrSpace>(r.next_handle++);
+  r.spaces[id_of(s)] = SpaceData{session, info->referenceSpaceType, xr::to_rigid(info->poseInReferenceSpace)};
+  *space = s;
+  return XR_SUCCESS;
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL DestroySpace(XrSpace space) {
+  Runtime& r = rt();
+  std::lock_guard lock(r.mu);
+  return r.spaces.erase(id_of(space)) ? XR_SUCCESS : XR_ERROR_HANDLE_INVALID;
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL LocateSpace(XrSpace space, XrSpace baseSpace, XrTime time, XrSpaceLocation* location) {
+  Runtime& r = rt();
+  std::lock_guard lock(r.mu);
+  const auto a = r.spaces.find(id_of(space));
+  const auto b = r.spaces.find(id_of(baseSpace));
+  if (a == r.spaces.end() || b == r.spaces.end()) return XR_ERROR_HANDLE_INVALID;
+  if (!location || location->type != XR_TYPE_SPACE_LOCATION) return XR_ERROR_VALIDATION_FAILURE;
+  if (time <= 0) return XR_ERROR_TIME_INVALID;
+  const double t = track_time(r, time);
+  location->pose = xr::to_xr(space_in_world(r, b->second, t).inverse() * space_in_world(r, a->second, t));
+  location->locationFlags = XR_SPACE_LOCATION_ORIENTATION_VALID_BIT | XR_SPACE_LOCATION_POSITION_VALID_BIT |
+                            XR_SPACE_LOCATION_ORIENTATION_TRACKED_BIT | XR_SPACE_LOCATION_POSITION_TRACKED_BIT;
+  for (auto* s = static_cast<XrBaseOutStructure*>(location->next); s; s = s->next)
+    if (s->type == XR_TYPE_SPACE_VELOCITY) reinterpret_cast<XrSpaceVelocity*>(s)->velocityFlags = 0;
+  return XR_SUCCESS;
+}
+
+// ---------------------------------------------------------------- hand tracking
+
+XRAPI_ATTR XrResult XRAPI_CALL CreateHandTrackerEXT(XrSession session, const XrHandTrackerCreateInfoEXT* info,
+                                                    XrHandTrackerEXT* tracker) {
+  Runtime& r = rt();
+  std::lock_guard lock(r.mu);
+  if (!find_session(r, session)) return XR_ERROR_HANDLE_INVALID;
+  if (!info || !tracker || info->type != XR_TYPE_HAND_TRACKER_CREATE_INFO_EXT) return XR_ERROR_VALIDATION_FAILURE;
+  if (info->hand != XR_HAND_LEFT_EXT && info->hand != XR_HAND_RIGHT_EXT) return XR_ERROR_VALIDATION_FAILURE;
+  if (info->handJointSet != XR_HAND_JOINT_SET_DEFAULT_EXT) return XR_ERROR_VALIDATION_FAILURE;
+  const XrHandTrackerEXT t = handle_of<XrHandTrackerEXT>(r.next_handle++);
+  r.trackers[id_of(t)] = TrackerData{session, info->hand};
+  *tracker = t;
+  return XR_SUCCESS;
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL DestroyHandTrackerEXT(XrHandTrackerEXT tracker) {
+  Runtime& r = rt();
+  std::lock_guard lock(r.mu);
+  return r.trackers.erase(id_of(tracker)) ? XR_SUCCESS : XR_ERROR_HANDLE_INVALID;
+}
+
+// A joint's world position, or for an untracked joint its nearest tracked ancestor's
+// (so that an active hand reports every joint valid, as the extension requires).
+Eigen::Vector3d valid_position(const Pose& p, int j) {
+  const auto& parent = xr_hand_skeleton().parent;
+  for (int k = j; k >= 0; k = parent[k])
+    if (joint_tracked(p, k)) return p.row(k).transpose();
+  for (int k = 0; k < kJointCount; ++k)
+    if (joint_tracked(p, k)) return p.row(k).transpose();
+  return Eigen::Vector3d::Zero();
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, const XrHandJointsLocateInfoEXT* info,
+                                                   XrHandJointLocationsEXT* out) {
+  Runtime& r = rt();
+  std::lock_guard lock(r.mu);
+  const auto tr = r.trackers.find(id_of(tracker));
+  if (tr == r.trackers.end()) return XR_ERROR_HANDLE_INVALID;
+  if (!info || info->type != XR_TYPE_HAND_JOINTS_LOCATE_INFO_EXT || !out ||
+      out->type != XR_TYPE_HAND_JOINT_LOCATIONS_EXT || !out->jointLocations)
+    return XR_ERROR_VALIDATION_FAILURE;
+  if (out->jointCount != XR_HAND_JOINT_COUNT_EXT) return XR_ERROR_VALIDATION_FAILURE;
+  const auto base = r.spaces.find(id_of(info->baseSpace));
+  if (base == r.spaces.end()) return XR_ERROR_HANDLE_INVALID;
+  if (info->time <= 0) return XR_ERROR_TIME_INVALID;
+  XrHandJointVelocitiesEXT* vel = nullptr;
+  for (auto* s = static_cast<XrBaseOutStructure*>(out->next); s; s = s->next)
+    if (s->type == XR_TYPE_HAND_JOINT_VELOCITIES_EXT) vel = reinterpret_cast<XrHandJointVelocitiesEXT*>(s);
+  if (vel && (vel->jointCount != XR_HAND_JOINT_COUNT_EXT || !vel->jointVelocities)) return XR_ERROR_VALIDATION_FAILURE;
+
+  const XrHandEXT hand = tr->second.hand;
+  const Pose world = hand_at(r, hand, info->time);
+  if (!any_joint_tracked(world)) {
+    out->isActive = XR_FALSE;
+    for (uint32_t j = 0; j < out->jointCount; ++j) out->jointLocations[j].locationFlags = 0;
+    if (vel)
+      for (uint32_t j = 0; j < vel->jointCount; ++j) vel->jointVelocities[j].velocityFlags = 0;
+    return XR_SUCCESS;
+  }
+  // Joint poses in the base space at time t: positions, and frames from the positions.
+  auto joints_in_base = [&](XrTime t, const Pose& w, std::array<Eigen::Vector3d, kJointCount>& pos,
+                            std::array<Eigen::Matrix3d, kJointCount>& rot) {
+    const Rigid world_to_base = space_in_world(r, base->second, track_time(r, t)).inverse();
+    Pose filled = w;
+    for (int j = 0; j < kJointCount; ++j) filled.row(j) = valid_position(w, j).transpose();
+    const auto frames = joint_frames(filled, hand);
+    for (int j = 0; j < kJointCount; ++j) {
+      pos[j] = world_to_base * Eigen::Vector3d(filled.row(j).transpose());
+      rot[j] = world_to_base.linear() * frames[j];
+    }
+  };
+  std::array<Eigen::Vector3d, kJointCount> pos;
+  std::array<Eigen::Matrix3d, kJointCount> rot;
+  joints_in_base(info->time, world, pos, rot);
+  out->isActive = XR_TRUE;
+  for (int j = 0; j < kJointCount; ++j) {
+    XrHandJointLocationEXT& loc = out->jointLocations[j];
+    loc.pose.position = xr::to_xr(pos[j]);
+    loc.pose.orientation = xr::to_xr(Eigen::Quaterniond(rot[j]).normalized());
+    const bool tip = j == 5 || j == 10 || j == 15 || j == 20 || j == 25;
+    loc.radius = tip ? 0.008f : 0.01f;
+    loc.locationFlags = XR_SPACE_LOCATION_ORIENTATION_VALID_BIT | XR_SPACE_LOCATION_POSITION_VALID_BIT;
+    if (joint_tracked(world, j))
+      loc.locationFlags |= XR_SPACE_LOCATION_ORIENTATION_TRACKED_BIT | XR_SPACE_LOCATION_POSITION_TRACKED_BIT;
+  }
+  if (vel) {
+    // Central differences over +-2 ms of the joints relative to the base space.
+    constexpr XrTime h = 2'000'000;
+    std::array<Eigen::Vector3d, kJointCount> p0, p1;
+    std::array<Eigen::Matrix3d, kJointCount> r0, r1;
+    const Pose w0 = hand_at(r, hand, info->time - h), w1 = hand_at(r, hand, info->time + h);
+    joints_in_base(info->time - h, w0, p0, r0);
+    joints_in_base(info->time + h, w1, p1, r1);
+    for (int j = 0; j < kJointCount; ++j) {
+      XrHandJointVelocityEXT& v = vel->jointVelocities[j];
+      v.velocityFlags = 0;
+      if (!joint_tracked(w0, j) || !joint_tracked(w1, j)) continue;
+      const double dt = 2.0 * static_cast<double>(h) * 1e-9;
+      v.linearVelocity = xr::to_xr(Eigen::Vector3d((p1[j] - p0[j]) / dt));
+      const Eigen::AngleAxisd d(Eigen::Matrix3d(r1[j] * r0[j].transpose()));
+      v.angularVelocity = xr::to_xr(Eigen::Vector3d(d.axis() * (d.angle() / dt)));
+      v.velocityFlags = XR_SPACE_VELOCITY_LINEAR_VALID_BIT | XR_SPACE_VELOCITY_ANGULAR_VALID_BIT;
+    }
+  }
+  // Injected faults: garbage a buggy runtime might produce, flags untouched.
+  const FaultRates& f = r.cfg.faults;
+  if (f.nan > 0.0 || f.huge > 0.0 || f.quat > 0.0) {
+    const int h = hand == XR_HAND_LEFT_EXT ? 0 : 1;
+    for (int j = 0; j < kJointCount; ++j) {
+      XrHandJointLocationEXT& loc = out->jointLocations[j];
+      if (fault_draw(info->time, h, j, 1) < f.nan) loc.pose.position.x = std::numeric_limits<float>::quiet_NaN();
+      if (fault_draw(info->time, h, j, 2) < f.huge) loc.pose.position = {1e30f, -1e30f, 1e30f};
+      if (fault_draw(info->time, h, j, 3) < f.quat) loc.pose.orientation = {0.f, 0.f, 0.f, 0.f};
+    }
+  }
+  return XR_SUCCESS;
+}
+
+// ---------------------------------------------------------------- dispatch
+
+XRAPI_ATTR XrResult XRAPI_CALL GetInstanceProcAddr(XrInstance instance, const char* name, PFN_xrVoidFunction* fn);
+
+struct Entry {
+  std::string_view name;
+  PFN_xrVoidFunction fn;
+  int extension;  // 0 core, 1 hand tracking, 2 timespec
+};
+#define HS_ENTRY(name, ext) {"xr" #name, reinterpret_cast<PFN_xrVoidFunction>(&name), ext}
+const Entry kEntries[] = {
+    HS_ENTRY(GetInstanceProcAddr, 0), HS_ENTRY(EnumerateInstanceExtensionProperties, 0),
+    HS_ENTRY(EnumerateApiLayerProperties, 0), HS_ENTRY(CreateInstance, 0), HS_ENTRY(DestroyInstance, 0),
+    HS_ENTRY(GetInstanceProperties, 0), HS_ENTRY(ResultToString, 0), HS_ENTRY(StructureTypeToString, 0),
+    HS_ENTRY(PollEvent, 0), HS_ENTRY(GetSystem, 0), HS_ENTRY(GetSystemProperties, 0),
+    HS_ENTRY(EnumerateViewConfigurations, 0), HS_ENTRY(CreateSession, 0), HS_ENTRY(DestroySession, 0),
+    HS_ENTRY(BeginSession, 0), HS_ENTRY(EndSession, 0), HS_ENTRY(RequestExitSession, 0), HS_ENTRY(WaitFrame, 0),
+    HS_ENTRY(BeginFrame, 0), HS_ENTRY(EndFrame, 0), HS_ENTRY(EnumerateReferenceSpaces, 0),
+    HS_ENTRY(CreateReferenceSpace, 0), HS_ENTRY(DestroySpace, 0), HS_ENTRY(LocateSpace, 0),
+    HS_ENTRY(CreateHandTrackerEXT, 1), HS_ENTRY(DestroyHandTrackerEXT, 1), HS_ENTRY(LocateHandJointsEXT, 1),
+    HS_ENTRY(ConvertTimespecTimeToTimeKHR, 2), HS_ENTRY(ConvertTimeToTimespecTimeKHR, 2),
+};
+#undef HS_ENTRY
+
+XRAPI_ATTR XrResult XRAPI_CALL GetInstanceProcAddr(XrInstance instance, const char* name, PFN_xrVoidFunction* fn) {
+  if (!fn) return XR_ERROR_VALIDATION_FAILURE;
+  *fn = nullptr;
+  if (!name) return XR_ERROR_VALIDATION_FAILURE;
+  const std::string_view n(name);
+  if (instance == XR_NULL_HANDLE) {
+    // Before an instance exists only these may be asked for.
+    if (n == "xrEnumerateInstanceExtensionProperties" || n == "xrEnumerateApiLayerProperties" ||
+        n == "xrCreateInstance" || n == "xrGetInstanceProcAddr") {
+      for (const Entry& e : kEntries)
+        if (e.name == n) *fn = e.fn;
+      return XR_SUCCESS;
+    }
+    return XR_ERROR_HANDLE_INVALID;
+  }
+  Runtime& r = rt();
+  std::lock_guard lock(r.mu);
+  if (!instance_ok(r, instance)) return XR_ERROR_HANDLE_INVALID;
+  for (const Entry& e : kEntries) {
+    if (e.name != n) continue;
+    if ((e.extension == 1 && !r.ext_hand) || (e.extension == 2 && !r.ext_timespec)) break;
+    *fn = e.fn;
+    return XR_SUCCESS;
+  }
+  return XR_ERROR_FUNCTION_UNSUPPORTED;
+}
+
+}  // namespace
+}  // namespace hs::shim
+
+extern "C" __attribute__((visibility("default"))) XrResult XRAPI_CALL
+xrNegotiateLoaderRuntimeInterface(const XrNegotiateLoaderInfo* loaderInfo, XrNegotiateRuntimeRequest* request) {
+  if (!loaderInfo || !request || loaderInfo->structType != XR_LOADER_INTERFACE_STRUCT_LOADER_INFO ||
+      loaderInfo->structVersion != XR_LOADER_INFO_STRUCT_VERSION || loaderInfo->structSize != sizeof(XrNegotiateLoaderInfo) ||
+      request->structType != XR_LOADER_INTERFACE_STRUCT_RUNTIME_REQUEST ||
+      request->structVersion != XR_RUNTIME_INFO_STRUCT_VERSION || request->structSize != sizeof(XrNegotiateRuntimeRequest))
+    return XR_ERROR_INITIALIZATION_FAILED;
+  if (loaderInfo->minInterfaceVersion > XR_CURRENT_LOADER_RUNTIME_VERSION ||
+      loaderInfo->maxInterfaceVersion < XR_CURRENT_LOADER_RUNTIME_VERSION)
+    return XR_ERROR_INITIALIZATION_FAILED;
+  request->runtimeInterfaceVersion = XR_CURRENT_LOADER_RUNTIME_VERSION;
+  request->runtimeApiVersion = XR_CURRENT_API_VERSION;
+  request->getInstanceProcAddr = &hs::shim::GetInstanceProcAddr;
+  return XR_SUCCESS;
+}

@@ -1,0 +1,494 @@
+// The layer through the real loader: app -> loader -> [core validation] -> handsteady ->
+// [core validation] -> replay runtime. Each test case runs in its own process (CTest),
+// so each may create its own XrInstance (the 1.0.20 loader allows one at a time).
+#include "handsteady/track_ops.hpp"
+#include "handsteady_xr/xr_math.hpp"
+#include "test_support.hpp"
+#include "xr_test_app.hpp"
+
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+
+using namespace hs;
+using namespace hs::xrtest;
+
+namespace {
+
+struct Errors {
+  std::array<double, 2> sum{}, raw_sum{};
+  std::array<long, 2> n{}, raw_n{};
+  double mean(int h) const { return n[h] ? sum[h] / static_cast<double>(n[h]) : std::nan(""); }
+  double raw_mean(int h) const { return raw_n[h] ? raw_sum[h] / static_cast<double>(raw_n[h]) : std::nan(""); }
+};
+
+// Runs `frames` frames; at each, locates both hands in `base` at the display time and
+// compares with the clean track at that time. raw: what the runtime replays (the noisy
+// track at `raw_time(T)`). Skips the first 30 frames (filter warm-up).
+template <class RawTime>
+Errors run_and_measure(App& app, const TrackFiles& f, XrSpace base, int frames, RawTime raw_time) {
+  Errors e;
+  for (int i = 0; i < frames; ++i) {
+    const XrTime T = app.frame();
+    for (XrHandEXT hand : {XR_HAND_LEFT_EXT, XR_HAND_RIGHT_EXT}) {
+      const int h = hand - 1;
+      const Joints j = app.locate(hand, base, T);
+      REQUIRE(j.result == XR_SUCCESS);
+      if (i < 30) continue;
+      const Pose truth = interpolate_pose(f.clean_series[h], track_time(f, T));
+      accumulate_error(j, app.space_pose(base, app.local, T), truth, e.sum[h], e.n[h]);
+      accumulate_error(interpolate_pose(f.noisy_series[h], track_time(f, raw_time(T))), truth, e.raw_sum[h],
+                       e.raw_n[h]);
+    }
+  }
+  return e;
+}
+
+std::vector<Joints> record_frames(App& app, int frames) {
+  std::vector<Joints> out;
+  for (int i = 0; i < frames; ++i) {
+    const XrTime T = app.frame();
+    for (XrHandEXT hand : {XR_HAND_LEFT_EXT, XR_HAND_RIGHT_EXT})
+      for (XrSpace s : {app.local, app.view}) out.push_back(app.locate(hand, s, T, true));
+  }
+  return out;
+}
+
+bool identical(const std::vector<Joints>& a, const std::vector<Joints>& b) {
+  if (a.size() != b.size()) return false;
+  for (size_t i = 0; i < a.size(); ++i)
+    if (a[i].result != b[i].result || a[i].active != b[i].active ||
+        std::memcmp(a[i].loc.data(), b[i].loc.data(), sizeof(a[i].loc)) != 0 ||
+        std::memcmp(a[i].vel.data(), b[i].vel.data(), sizeof(a[i].vel)) != 0)
+      return false;
+  return true;
+}
+
+std::vector<Joints> run_recorded(int frames) {
+  App app;
+  auto r = record_frames(app, frames);
+  app.shutdown();
+  return r;
+}
+
+std::string read_file(const std::filesystem::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+}  // namespace
+
+TEST_CASE("replay runtime without layer answers the noisy track exactly, in every base space") {
+  const TrackFiles f = make_tracks("replay", 2.0);
+  reset_env(f);
+  set_env("HANDSTEADY_SHIM_HEAD_MOTION", "1");
+  App app;
+  for (int i = 0; i < 60; ++i) {
+    const XrTime T = app.frame();
+    for (XrHandEXT hand : {XR_HAND_LEFT_EXT, XR_HAND_RIGHT_EXT}) {
+      const Pose noisy = interpolate_pose(f.noisy_series[hand - 1], track_time(f, T));
+      for (XrSpace base : {app.local, app.stage, app.view}) {
+        const Joints j = app.locate(hand, base, T, true);
+        REQUIRE(j.result == XR_SUCCESS);
+        REQUIRE(j.active == XR_TRUE);
+        const xr::Rigid m = xr::to_rigid(app.space_pose(base, app.local, T));
+        for (int k = 0; k < kJointCount; ++k) {
+          CHECK((j.loc[k].locationFlags & 0x3) == 0x3);
+          if (!joint_tracked(noisy, k)) continue;
+          const Eigen::Vector3d p = m * xr::to_eigen(j.loc[k].pose.position);
+          CHECK((p - noisy.row(k).transpose()).norm() < 1e-5);
+          CHECK(j.loc[k].radius > 0.0f);
+        }
+      }
+    }
+  }
+  app.shutdown();
+}
+
+TEST_CASE("denoise: both hands closer to the clean track than the raw replay, in LOCAL, STAGE and moving VIEW") {
+  const TrackFiles f = make_tracks("denoise", 5.0);
+  for (const std::string space : {"local", "stage", "view"}) {
+    CAPTURE(space);
+    reset_env(f);
+    set_env("HANDSTEADY_SHIM_HEAD_MOTION", "1");
+    enable_layers({kLayer});
+    App app;
+    const XrSpace base = space == "local" ? app.local : space == "stage" ? app.stage : app.view;
+    const Errors e = run_and_measure(app, f, base, 400, [](XrTime T) { return T; });
+    for (int h = 0; h < 2; ++h) {
+      MESSAGE(space << " hand " << h << ": layer " << e.mean(h) * 1e3 << " mm, raw " << e.raw_mean(h) * 1e3 << " mm");
+      CHECK(e.n[h] > 300 * 20);
+      CHECK(e.mean(h) < 0.9 * e.raw_mean(h));
+    }
+    app.shutdown();
+  }
+}
+
+TEST_CASE("denoise: the same time in several base spaces gives the same world positions") {
+  const TrackFiles f = make_tracks("spaces", 2.0);
+  reset_env(f);
+  set_env("HANDSTEADY_SHIM_HEAD_MOTION", "1");
+  enable_layers({kLayer});
+  App app;
+  for (int i = 0; i < 100; ++i) {
+    const XrTime T = app.frame();
+    // Ask in VIEW first (moving), then LOCAL and STAGE: all must agree once in LOCAL.
+    const Joints v = app.locate(XR_HAND_RIGHT_EXT, app.view, T);
+    const Joints l = app.locate(XR_HAND_RIGHT_EXT, app.local, T);
+    const Joints s = app.locate(XR_HAND_RIGHT_EXT, app.stage, T);
+    const xr::Rigid mv = xr::to_rigid(app.space_pose(app.view, app.local, T));
+    const xr::Rigid ms = xr::to_rigid(app.space_pose(app.stage, app.local, T));
+    for (int k = 0; k < kJointCount; ++k) {
+      const Eigen::Vector3d pl = xr::to_eigen(l.loc[k].pose.position);
+      CHECK((mv * xr::to_eigen(v.loc[k].pose.position) - pl).norm() < 1e-4);
+      CHECK((ms * xr::to_eigen(s.loc[k].pose.position) - pl).norm() < 1e-4);
+      // Orientations stay unit quaternions and follow the same rotation.
+      const Eigen::Quaterniond ql = xr::to_eigen(l.loc[k].pose.orientation);
+      const Eigen::Quaterniond qv(mv.rotation() * xr::to_eigen(v.loc[k].pose.orientation).toRotationMatrix());
+      CHECK(std::abs(ql.norm() - 1.0) < 1e-4);
+      CHECK(std::abs(std::abs(ql.dot(qv)) - 1.0) < 1e-4);
+    }
+  }
+  app.shutdown();
+}
+
+TEST_CASE("denoise: orientations follow the new bone directions; velocities stay consistent") {
+  const TrackFiles f = make_tracks("orient", 3.0);
+  reset_env(f);
+  enable_layers({kLayer});
+  App app;
+  double vel_err_sum = 0.0, raw_vel_err_sum = 0.0;
+  long vn = 0;
+  for (int i = 0; i < 200; ++i) {
+    const XrTime T = app.frame();
+    const Joints j = app.locate(XR_HAND_RIGHT_EXT, app.local, T, true);
+    REQUIRE(j.active == XR_TRUE);
+    if (i < 30) continue;
+    for (int k = 0; k < kJointCount; ++k) {
+      const auto [a, b] = xr::kJointBone[k];
+      const Eigen::Vector3d bone = xr::to_eigen(j.loc[b].pose.position) - xr::to_eigen(j.loc[a].pose.position);
+      if (bone.norm() < 1e-3) continue;
+      // The joint's -Z axis points along its (new) bone, as the runtime's did along its own.
+      const Eigen::Vector3d minus_z = -(xr::to_eigen(j.loc[k].pose.orientation) * Eigen::Vector3d::UnitZ());
+      CHECK(minus_z.dot(bone.normalized()) > 0.999);
+      // Velocity against the clean track's finite difference.
+      const double t = track_time(f, T);
+      const Eigen::Vector3d vt =
+          ((interpolate_pose(f.clean_series[1], t + 0.01).row(k) - interpolate_pose(f.clean_series[1], t - 0.01).row(k)) /
+           0.02).transpose();
+      const Eigen::Vector3d vr =
+          ((interpolate_pose(f.noisy_series[1], t + 0.002).row(k) - interpolate_pose(f.noisy_series[1], t - 0.002).row(k)) /
+           0.004).transpose();
+      if (!vt.allFinite() || !vr.allFinite()) continue;
+      REQUIRE((j.vel[k].velocityFlags & XR_SPACE_VELOCITY_LINEAR_VALID_BIT) != 0);
+      vel_err_sum += (xr::to_eigen(j.vel[k].linearVelocity) - vt).norm();
+      raw_vel_err_sum += (vr - vt).norm();
+      ++vn;
+    }
+  }
+  REQUIRE(vn > 1000);
+  MESSAGE("velocity error: layer " << vel_err_sum / static_cast<double>(vn) << " m/s, raw "
+                                   << raw_vel_err_sum / static_cast<double>(vn) << " m/s");
+  CHECK(vel_err_sum < raw_vel_err_sum);
+  app.shutdown();
+}
+
+TEST_CASE("predict: error at the display time below the runtime's stale answer") {
+  const TrackFiles f = make_tracks("predict", 5.0, 0.001);
+  reset_env(f);
+  set_env("HANDSTEADY_SHIM_FUTURE", "hold");  // the runtime answers its latest sample
+  set_env("HANDSTEADY_SHIM_LATENCY_MS", "40");
+  set_env("HANDSTEADY_MODE", "predict");
+  set_env("HANDSTEADY_HORIZON_MS", "40");
+  enable_layers({kLayer});
+  App app;
+  const Errors e = run_and_measure(app, f, app.local, 400, [](XrTime T) { return T - 40'000'000; });
+  for (int h = 0; h < 2; ++h) {
+    MESSAGE("hand " << h << ": predicted " << e.mean(h) * 1e3 << " mm, runtime " << e.raw_mean(h) * 1e3 << " mm");
+    CHECK(e.mean(h) < 0.9 * e.raw_mean(h));
+  }
+  app.shutdown();
+}
+
+TEST_CASE("disabled layer is an exact passthrough (disable_environment, mode off, config file)") {
+  const TrackFiles f = make_tracks("passthrough", 1.5);
+  reset_env(f);
+  set_env("HANDSTEADY_SHIM_HEAD_MOTION", "1");
+  const auto baseline = run_recorded(60);
+  REQUIRE(baseline.front().active == XR_TRUE);
+
+  install_implicit_layer(f.dir / "xdg");
+  set_env("DISABLE_XR_APILAYER_NOVENDOR_handsteady", "1");
+  CHECK(identical(run_recorded(60), baseline));
+  unset_env("DISABLE_XR_APILAYER_NOVENDOR_handsteady");
+
+  set_env("HANDSTEADY_MODE", "off");
+  CHECK(identical(run_recorded(60), baseline));
+  unset_env("HANDSTEADY_MODE");
+
+  const auto cfg = f.dir / "off.json";
+  std::ofstream(cfg) << R"({"mode": "off", "log_level": "warn"})";
+  set_env("HANDSTEADY_CONFIG", cfg.string());
+  CHECK(identical(run_recorded(60), baseline));
+  // The environment overrides the file.
+  set_env("HANDSTEADY_MODE", "denoise");
+  CHECK_FALSE(identical(run_recorded(60), baseline));
+  unset_env("HANDSTEADY_MODE");
+  unset_env("HANDSTEADY_CONFIG");
+
+  // Enabled implicitly with no configuration at all: it filters.
+  CHECK_FALSE(identical(run_recorded(60), baseline));
+}
+
+TEST_CASE("bad configuration is reported and ignored: the layer still denoises") {
+  const TrackFiles f = make_tracks("badconfig", 3.0);
+  reset_env(f);
+  const auto cfg = f.dir / "bad.json";
+  std::ofstream(cfg) << R"({"mode": "sideways", "horizon_ms": "soon", "oneeuro": {"beta": -3})";  // invalid JSON too
+  set_env("HANDSTEADY_CONFIG", cfg.string());
+  set_env("HANDSTEADY_METHOD", "no-such-filter");
+  set_env("HANDSTEADY_LOG", "off");
+  enable_layers({kLayer});
+  App app;
+  const Errors e = run_and_measure(app, f, app.local, 250, [](XrTime T) { return T; });
+  for (int h = 0; h < 2; ++h) CHECK(e.mean(h) < 0.9 * e.raw_mean(h));
+  app.shutdown();
+}
+
+TEST_CASE("configuration file selects the engine and its parameters") {
+  const TrackFiles f = make_tracks("config", 3.0);
+  reset_env(f);
+  enable_layers({kLayer});
+  // "raw" holds the last sample: exactly the runtime's answer at the asked time.
+  const auto cfg = f.dir / "raw.json";
+  std::ofstream(cfg) << R"({"mode": "denoise", "method": "raw"})";
+  set_env("HANDSTEADY_CONFIG", cfg.string());
+  App app;
+  for (int i = 0; i < 50; ++i) {
+    const XrTime T = app.frame();
+    const Joints j = app.locate(XR_HAND_LEFT_EXT, app.local, T);
+    const Pose noisy = interpolate_pose(f.noisy_series[0], track_time(f, T));
+    for (int k = 0; k < kJointCount; ++k)
+      if (joint_tracked(noisy, k)) CHECK((xr::to_eigen(j.loc[k].pose.position) - noisy.row(k).transpose()).norm() < 1e-5);
+  }
+  app.shutdown();
+}
+
+TEST_CASE("without XR_EXT_hand_tracking the layer hooks nothing") {
+  const TrackFiles f = make_tracks("noext", 1.0);
+  reset_env(f);
+  enable_layers({kLayer});
+  App app(false);
+  PFN_xrVoidFunction fn = nullptr;
+  CHECK(xrGetInstanceProcAddr(app.instance, "xrLocateHandJointsEXT", &fn) == XR_ERROR_FUNCTION_UNSUPPORTED);
+  CHECK(reinterpret_cast<void*>(fn) == nullptr);
+  app.frame();
+  app.shutdown();
+}
+
+// Core validation writes its file only when it has something to say: each run ends with
+// one deliberately bad call (from the app) so that the file proves validation was active;
+// that call's messages must be the only errors.
+bool only_expected_errors(const std::string& text, int& bad_call_errors) {
+  std::istringstream in(text);
+  std::string line;
+  bool ok = true;
+  bad_call_errors = 0;
+  while (std::getline(in, line)) {
+    if (line.find("VALID_ERROR") == std::string::npos) continue;
+    if (line.find("VUID-XrSpaceLocation-type-type") != std::string::npos ||
+        line.find("VUID-xrLocateSpace-location-parameter") != std::string::npos) {
+      ++bad_call_errors;
+    } else {
+      MESSAGE("unexpected: " << line);
+      ok = false;
+    }
+  }
+  return ok;
+}
+
+void bad_call(const App& app, XrTime T) {
+  XrSpaceLocation loc{};  // type left 0
+  CHECK(XR_FAILED(xrLocateSpace(app.view, app.local, T, &loc)));
+}
+
+TEST_CASE("core validation above and below the layer reports no error") {
+  const TrackFiles f = make_tracks("validation", 2.0);
+  for (bool above : {true, false}) {
+    CAPTURE(above);
+    reset_env(f);
+    const auto log = f.dir / (above ? "cv_above.txt" : "cv_below.txt");
+    std::filesystem::remove(log);
+    set_env("XR_CORE_VALIDATION_EXPORT_TYPE", "text");
+    set_env("XR_CORE_VALIDATION_FILE_NAME", log.string());
+    set_env("HANDSTEADY_SHIM_HEAD_MOTION", "1");
+    if (above) enable_layers({kCoreValidation, kLayer});
+    else enable_layers({kLayer, kCoreValidation});
+    {
+      App app;
+      XrTime T = 0;
+      for (int i = 0; i < 100; ++i) {
+        T = app.frame();
+        for (XrHandEXT hand : {XR_HAND_LEFT_EXT, XR_HAND_RIGHT_EXT})
+          for (XrSpace s : {app.local, app.stage, app.view}) CHECK(app.locate(hand, s, T, i % 2 == 0).result == XR_SUCCESS);
+      }
+      bad_call(app, T);
+      // Session destroyed with its trackers alive: the implicit destruction path.
+      app.shutdown(true);
+    }
+    int bad = 0;
+    CHECK(only_expected_errors(read_file(log), bad));
+    CHECK(bad > 0);
+  }
+}
+
+TEST_CASE("core validation catches a bad call (the check above can fail)") {
+  const TrackFiles f = make_tracks("validation_neg", 1.0);
+  reset_env(f);
+  const auto log = f.dir / "cv_neg.txt";
+  std::filesystem::remove(log);
+  set_env("XR_CORE_VALIDATION_EXPORT_TYPE", "text");
+  set_env("XR_CORE_VALIDATION_FILE_NAME", log.string());
+  enable_layers({kCoreValidation, kLayer});
+  {
+    App app;
+    const XrTime T = app.frame();
+    bad_call(app, T);
+    // And an error of another kind: a hand-joint locate with a wrong structure type.
+    std::array<XrHandJointLocationEXT, XR_HAND_JOINT_COUNT_EXT> loc{};
+    XrHandJointLocationsEXT out{};
+    out.jointCount = XR_HAND_JOINT_COUNT_EXT;
+    out.jointLocations = loc.data();
+    XrHandJointsLocateInfoEXT info{};
+    info.type = XR_TYPE_HAND_JOINTS_LOCATE_INFO_EXT;
+    info.baseSpace = app.local;
+    info.time = T;
+    CHECK(XR_FAILED(app.locate_joints(app.trackers[0], &info, &out)));
+    app.shutdown();
+  }
+  int bad = 0;
+  CHECK_FALSE(only_expected_errors(read_file(log), bad));
+  CHECK(bad > 0);
+}
+
+TEST_CASE("many create/destroy cycles: state starts afresh each time") {
+  const TrackFiles f = make_tracks("cycles", 1.0);
+  reset_env(f);
+  enable_layers({kLayer});
+  std::vector<Joints> first;
+  for (int cycle = 0; cycle < 25; ++cycle) {
+    App app;
+    std::vector<Joints> seen;
+    for (int i = 0; i < 8; ++i) {
+      const XrTime T = app.frame();
+      seen.push_back(app.locate(XR_HAND_RIGHT_EXT, app.local, T, true));
+    }
+    if (cycle == 0) first = seen;
+    else CHECK(identical(seen, first));
+    // Half the cycles let xrDestroySession drop the trackers.
+    app.shutdown(cycle % 2 == 1);
+  }
+}
+
+TEST_CASE("repeated, older and irregular times, hands lost and found, NaN and garbage from the runtime") {
+  const TrackFiles f = make_tracks("faults", 6.0, 0.003, true);
+  reset_env(f);
+  set_env("HANDSTEADY_SHIM_FAULTS", "nan:0.01,huge:0.01,quat:0.01");
+  set_env("HANDSTEADY_SHIM_HEAD_MOTION", "1");
+  enable_layers({kLayer});
+  App app;
+  long valid = 0, sane = 0, lost_frames = 0, found_again = 0;
+  double err_sum = 0.0, raw_sum = 0.0;
+  long err_n = 0, raw_n = 0;
+  XrTime prev = 0;
+  for (int i = 0; i < 540; ++i) {
+    const XrTime T = app.frame();
+    // The display time, repeated, older, and irregular (between frames), in several spaces.
+    const XrTime times[] = {T, T, T - 30'000'000, prev > 0 ? prev + (T - prev) / 3 : T, T - 1'000'000'000, T};
+    for (XrHandEXT hand : {XR_HAND_LEFT_EXT, XR_HAND_RIGHT_EXT}) {
+      const int h = hand - 1;
+      for (size_t q = 0; q < std::size(times); ++q) {
+        const XrSpace base = q % 3 == 0 ? app.local : q % 3 == 1 ? app.view : app.stage;
+        const Joints j = app.locate(hand, base, times[q], q % 2 == 0);
+        REQUIRE(j.result == XR_SUCCESS);
+        if (!j.active) {
+          for (const auto& l : j.loc) CHECK(l.locationFlags == 0);
+          continue;
+        }
+        const Pose truth = interpolate_pose(f.clean_series[h], track_time(f, times[q]));
+        const xr::Rigid m = xr::to_rigid(app.space_pose(base, app.local, times[q]));
+        for (int k = 0; k < kJointCount; ++k) {
+          if (!joint_tracked(truth, k) || !(j.loc[k].locationFlags & XR_SPACE_LOCATION_POSITION_TRACKED_BIT)) continue;
+          ++valid;
+          const Eigen::Vector3d p = m * xr::to_eigen(j.loc[k].pose.position);
+          if (p.allFinite() && (p - truth.row(k).transpose()).norm() < 0.05) ++sane;
+        }
+      }
+      // Error at the display time only, once the faults are behind the first 30 frames.
+      const Joints j = app.locate(hand, app.local, T);
+      const Pose truth = interpolate_pose(f.clean_series[h], track_time(f, T));
+      if (h == 1 && !j.active) ++lost_frames;
+      if (h == 1 && j.active && lost_frames > 0 && found_again == 0) found_again = i;
+      if (i > 30 && j.active) {
+        for (int k = 0; k < kJointCount; ++k) {
+          const Eigen::Vector3d p = xr::to_eigen(j.loc[k].pose.position);
+          if (!joint_tracked(truth, k) || !p.allFinite()) continue;
+          err_sum += (p - truth.row(k).transpose()).norm();
+          ++err_n;
+        }
+        const Pose noisy = interpolate_pose(f.noisy_series[h], track_time(f, T));
+        accumulate_error(noisy, truth, raw_sum, raw_n);
+      }
+    }
+    prev = T;
+  }
+  MESSAGE("valid joints " << valid << ", within 5 cm of the truth " << sane << "; lost frames " << lost_frames);
+  CHECK(lost_frames > 60);         // the right hand was gone for about a second
+  CHECK(found_again > 0);
+  // Garbage joints the engine has a state for are replaced: nearly all answers are sane.
+  CHECK(static_cast<double>(sane) > 0.995 * static_cast<double>(valid));
+  CHECK(err_n > 10000);
+  CHECK(err_sum / static_cast<double>(err_n) < 0.9 * raw_sum / static_cast<double>(raw_n));
+  app.shutdown();
+}
+
+TEST_CASE("invalid arguments reach the app with the runtime's error") {
+  const TrackFiles f = make_tracks("invalid", 1.0);
+  reset_env(f);
+  enable_layers({kLayer});
+  App app;
+  const XrTime T = app.frame();
+  CHECK(app.locate(XR_HAND_LEFT_EXT, app.local, T, false, 25).result == XR_ERROR_VALIDATION_FAILURE);
+  CHECK(app.locate(XR_HAND_LEFT_EXT, app.local, 0).result == XR_ERROR_TIME_INVALID);
+  CHECK(app.locate(XR_HAND_LEFT_EXT, app.local, T).result == XR_SUCCESS);
+  app.shutdown();
+}
+
+TEST_CASE("record option writes raw and filtered track CSVs") {
+  const TrackFiles f = make_tracks("record", 2.0);
+  reset_env(f);
+  const auto dir = f.dir / "rec";
+  std::filesystem::remove_all(dir);
+  set_env("HANDSTEADY_RECORD", dir.string());
+  enable_layers({kLayer});
+  {
+    App app;
+    for (int i = 0; i < 90; ++i) {
+      const XrTime T = app.frame();
+      for (XrHandEXT hand : {XR_HAND_LEFT_EXT, XR_HAND_RIGHT_EXT}) app.locate(hand, app.view, T);
+    }
+    app.shutdown();
+  }
+  int files = 0;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) {
+    const Track t = read_track_csv(e.path());
+    CHECK(t.rows.size() == 90);
+    ++files;
+  }
+  CHECK(files == 4);
+}

@@ -1,0 +1,64 @@
+// Time the layer adds to one xrLocateHandJointsEXT call: the same app, the same replayed
+// track, once without and once with the layer (default configuration), both hands,
+// VIEW base space with head motion and chained velocities. Prints p50/p99 per call.
+//   HS_BENCH_FRAMES=3000 xr_layer_bench
+#include "xr_test_app.hpp"
+
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <vector>
+
+using namespace hs::xrtest;
+
+namespace {
+
+std::vector<double> measure(int frames) {
+  App app;
+  std::vector<double> us;
+  us.reserve(static_cast<size_t>(frames) * 2);
+  for (int i = 0; i < frames; ++i) {
+    const XrTime T = app.frame();
+    for (XrHandEXT hand : {XR_HAND_LEFT_EXT, XR_HAND_RIGHT_EXT}) {
+      const auto t0 = std::chrono::steady_clock::now();
+      const Joints j = app.locate(hand, app.view, T, true);
+      const auto t1 = std::chrono::steady_clock::now();
+      REQUIRE(j.result == XR_SUCCESS);
+      if (i >= 50) us.push_back(std::chrono::duration<double, std::micro>(t1 - t0).count());
+    }
+  }
+  app.shutdown();
+  std::sort(us.begin(), us.end());
+  return us;
+}
+
+double pct(const std::vector<double>& v, double p) {
+  return v.empty() ? 0.0 : v[std::min(v.size() - 1, static_cast<size_t>(p * static_cast<double>(v.size())))];
+}
+
+// HS_BENCH_FRAMES (default 3000) frames per configuration.
+int bench_frames() {
+  const char* v = std::getenv("HS_BENCH_FRAMES");
+  return v ? std::max(100, std::atoi(v)) : 3000;
+}
+
+}  // namespace
+
+TEST_CASE("layer overhead per xrLocateHandJointsEXT call") {
+  const int g_frames = bench_frames();
+  const TrackFiles f = make_tracks("bench", std::max(2.0, static_cast<double>(g_frames) / 90.0 + 1.0));
+  reset_env(f);
+  set_env("HANDSTEADY_SHIM_HEAD_MOTION", "1");
+  const auto off = measure(g_frames);
+  enable_layers({kLayer});
+  const auto on = measure(g_frames);
+  std::printf("xrLocateHandJointsEXT, %zu calls each (us):\n", on.size());
+  std::printf("  without layer: p50 %.2f  p99 %.2f\n", pct(off, 0.5), pct(off, 0.99));
+  std::printf("  with layer:    p50 %.2f  p99 %.2f\n", pct(on, 0.5), pct(on, 0.99));
+  std::printf("  added:         p50 %.2f  p99 %.2f  (target p99 <= 300)\n", pct(on, 0.5) - pct(off, 0.5),
+              pct(on, 0.99) - pct(off, 0.99));
+  CHECK(on.size() == off.size());
+}

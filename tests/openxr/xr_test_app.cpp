@@ -1,0 +1,246 @@
+#include "xr_test_app.hpp"
+
+#include "handsteady/synth.hpp"
+#include "handsteady_xr/xr_math.hpp"
+#include "test_support.hpp"
+
+#include <doctest/doctest.h>
+
+#include <cstdlib>
+#include <fstream>
+
+namespace hs::xrtest {
+
+TrackFiles make_tracks(const std::string& name, double duration_s, double jitter_sd_m, bool with_gap) {
+  TrackFiles f;
+  f.dir = hs::test::temp_dir("openxr_" + name);
+  SynthMotionParams p;
+  p.duration_s = duration_s;
+  p.rate_hz = 90.0;
+  f.clean = synth_track(p, 7);
+  if (with_gap) {
+    // The right hand leaves the view for a second in the middle.
+    for (auto& row : f.clean.rows)
+      if (row.hand == Hand::Right && row.t > 0.4 * duration_s && row.t < 0.4 * duration_s + 1.0)
+        row.pos = untracked_pose();
+  }
+  CorruptionConfig c = corruption_preset("tracker");
+  c.tracker.jitter_sd_m = jitter_sd_m;
+  c.tracker.hand_drop_rate_hz = 0.0;  // dropouts are tested separately (with_gap)
+  f.noisy = corrupt_track(f.clean, c, 11);
+  f.clean_csv = f.dir / "clean.csv";
+  f.noisy_csv = f.dir / "noisy.csv";
+  write_track_csv(f.clean, f.clean_csv);
+  write_track_csv(f.noisy, f.noisy_csv);
+  // Read back what the runtime will read, so truth and replay use identical numbers.
+  f.clean = read_track_csv(f.clean_csv);
+  f.noisy = read_track_csv(f.noisy_csv);
+  for (Hand h : {Hand::Left, Hand::Right}) {
+    f.clean_series[static_cast<int>(h)] = hand_series(f.clean, h);
+    f.noisy_series[static_cast<int>(h)] = hand_series(f.noisy, h);
+  }
+  f.t0 = std::min(f.noisy_series[0].t.front(), f.noisy_series[1].t.front());
+  return f;
+}
+
+void set_env(const char* name, const std::string& value) { ::setenv(name, value.c_str(), 1); }
+void unset_env(const char* name) { ::unsetenv(name); }
+
+void reset_env(const TrackFiles& files) {
+  for (const char* v : {"XR_API_LAYER_PATH", "XR_ENABLE_API_LAYERS", "XDG_DATA_HOME", "XDG_DATA_DIRS",
+                        "XR_CORE_VALIDATION_EXPORT_TYPE", "XR_CORE_VALIDATION_FILE_NAME",
+                        "DISABLE_XR_APILAYER_NOVENDOR_handsteady", "HANDSTEADY_CONFIG", "HANDSTEADY_MODE",
+                        "HANDSTEADY_METHOD", "HANDSTEADY_MODEL", "HANDSTEADY_HORIZON_MS", "HANDSTEADY_LOG",
+                        "HANDSTEADY_RECORD", "HANDSTEADY_SHIM_CORRUPT", "HANDSTEADY_SHIM_CLOCK",
+                        "HANDSTEADY_SHIM_LATENCY_MS", "HANDSTEADY_SHIM_FUTURE", "HANDSTEADY_SHIM_HEAD_MOTION",
+                        "HANDSTEADY_SHIM_FAULTS"})
+    unset_env(v);
+  // Keep system implicit layers out: the tests choose their layers.
+  set_env("XDG_DATA_HOME", (files.dir / "xdg-empty").string());
+  set_env("XDG_DATA_DIRS", (files.dir / "xdg-empty").string());
+  set_env("XR_RUNTIME_JSON", HS_REPLAY_RUNTIME_JSON);
+  set_env("HANDSTEADY_SHIM_TRACK", files.noisy_csv.string());
+  set_env("HANDSTEADY_SHIM_CLOCK", "sim:11.111111");
+}
+
+void enable_layers(const std::vector<std::string>& names) {
+  set_env("XR_API_LAYER_PATH", std::string(HS_LAYER_DIR) + ":/usr/share/openxr/1/api_layers/explicit.d");
+  std::string list;
+  for (const auto& n : names) list += (list.empty() ? "" : ":") + n;
+  set_env("XR_ENABLE_API_LAYERS", list);
+}
+
+void install_implicit_layer(const std::filesystem::path& xdg) {
+  const auto dir = xdg / "openxr" / "1" / "api_layers" / "implicit.d";
+  std::filesystem::create_directories(dir);
+  std::filesystem::copy_file(HS_LAYER_IMPLICIT_MANIFEST, dir / "XrApiLayer_handsteady.json",
+                             std::filesystem::copy_options::overwrite_existing);
+  set_env("XDG_DATA_HOME", xdg.string());
+}
+
+double track_time(const TrackFiles& f, XrTime t) { return f.t0 + static_cast<double>(t - kShimEpochNs) * 1e-9; }
+
+namespace {
+template <class PFN>
+PFN proc(XrInstance instance, const char* name) {
+  PFN_xrVoidFunction fn = nullptr;
+  REQUIRE(xrGetInstanceProcAddr(instance, name, &fn) == XR_SUCCESS);
+  REQUIRE(reinterpret_cast<void*>(fn) != nullptr);
+  return reinterpret_cast<PFN>(fn);
+}
+}  // namespace
+
+App::App(bool hand_tracking) {
+  std::vector<const char*> ext = {XR_MND_HEADLESS_EXTENSION_NAME};
+  if (hand_tracking) ext.push_back(XR_EXT_HAND_TRACKING_EXTENSION_NAME);
+  XrInstanceCreateInfo ci{};
+  ci.type = XR_TYPE_INSTANCE_CREATE_INFO;
+  std::snprintf(ci.applicationInfo.applicationName, XR_MAX_APPLICATION_NAME_SIZE, "handsteady-test");
+  ci.applicationInfo.apiVersion = XR_CURRENT_API_VERSION;
+  ci.enabledExtensionCount = static_cast<uint32_t>(ext.size());
+  ci.enabledExtensionNames = ext.data();
+  REQUIRE(xrCreateInstance(&ci, &instance) == XR_SUCCESS);
+
+  XrSystemGetInfo gi{};
+  gi.type = XR_TYPE_SYSTEM_GET_INFO;
+  gi.formFactor = XR_FORM_FACTOR_HEAD_MOUNTED_DISPLAY;
+  XrSystemId system = XR_NULL_SYSTEM_ID;
+  REQUIRE(xrGetSystem(instance, &gi, &system) == XR_SUCCESS);
+  XrSystemHandTrackingPropertiesEXT htp{};
+  htp.type = XR_TYPE_SYSTEM_HAND_TRACKING_PROPERTIES_EXT;
+  XrSystemProperties sp{};
+  sp.type = XR_TYPE_SYSTEM_PROPERTIES;
+  sp.next = &htp;
+  REQUIRE(xrGetSystemProperties(instance, system, &sp) == XR_SUCCESS);
+  CHECK(htp.supportsHandTracking == (hand_tracking ? XR_TRUE : XR_FALSE));
+
+  XrSessionCreateInfo sci{};
+  sci.type = XR_TYPE_SESSION_CREATE_INFO;
+  sci.systemId = system;
+  REQUIRE(xrCreateSession(instance, &sci, &session) == XR_SUCCESS);
+  poll_until(XR_SESSION_STATE_READY);
+  XrSessionBeginInfo bi{};
+  bi.type = XR_TYPE_SESSION_BEGIN_INFO;
+  bi.primaryViewConfigurationType = XR_VIEW_CONFIGURATION_TYPE_PRIMARY_STEREO;
+  REQUIRE(xrBeginSession(session, &bi) == XR_SUCCESS);
+  poll_until(XR_SESSION_STATE_FOCUSED);
+
+  for (auto [type, space] : {std::pair{XR_REFERENCE_SPACE_TYPE_LOCAL, &local},
+                             std::pair{XR_REFERENCE_SPACE_TYPE_STAGE, &stage},
+                             std::pair{XR_REFERENCE_SPACE_TYPE_VIEW, &view}}) {
+    XrReferenceSpaceCreateInfo rci{};
+    rci.type = XR_TYPE_REFERENCE_SPACE_CREATE_INFO;
+    rci.referenceSpaceType = type;
+    rci.poseInReferenceSpace.orientation.w = 1.0f;
+    REQUIRE(xrCreateReferenceSpace(session, &rci, space) == XR_SUCCESS);
+  }
+  if (!hand_tracking) return;
+  create_tracker = proc<PFN_xrCreateHandTrackerEXT>(instance, "xrCreateHandTrackerEXT");
+  destroy_tracker = proc<PFN_xrDestroyHandTrackerEXT>(instance, "xrDestroyHandTrackerEXT");
+  locate_joints = proc<PFN_xrLocateHandJointsEXT>(instance, "xrLocateHandJointsEXT");
+  for (XrHandEXT hand : {XR_HAND_LEFT_EXT, XR_HAND_RIGHT_EXT}) {
+    XrHandTrackerCreateInfoEXT hci{};
+    hci.type = XR_TYPE_HAND_TRACKER_CREATE_INFO_EXT;
+    hci.hand = hand;
+    hci.handJointSet = XR_HAND_JOINT_SET_DEFAULT_EXT;
+    REQUIRE(create_tracker(session, &hci, &trackers[hand - 1]) == XR_SUCCESS);
+  }
+}
+
+void App::poll_until(XrSessionState state) {
+  for (int i = 0; i < 100; ++i) {
+    XrEventDataBuffer ev{};
+    ev.type = XR_TYPE_EVENT_DATA_BUFFER;
+    const XrResult r = xrPollEvent(instance, &ev);
+    REQUIRE(XR_SUCCEEDED(r));
+    if (r == XR_EVENT_UNAVAILABLE) break;
+    if (ev.type == XR_TYPE_EVENT_DATA_SESSION_STATE_CHANGED &&
+        reinterpret_cast<const XrEventDataSessionStateChanged*>(&ev)->state == state)
+      return;
+  }
+  FAIL("session never reached state " << state);
+}
+
+XrTime App::frame() {
+  XrFrameWaitInfo wi{};
+  wi.type = XR_TYPE_FRAME_WAIT_INFO;
+  XrFrameState fs{};
+  fs.type = XR_TYPE_FRAME_STATE;
+  REQUIRE(xrWaitFrame(session, &wi, &fs) == XR_SUCCESS);
+  CHECK(fs.shouldRender == XR_FALSE);
+  XrFrameBeginInfo bi{};
+  bi.type = XR_TYPE_FRAME_BEGIN_INFO;
+  REQUIRE(xrBeginFrame(session, &bi) == XR_SUCCESS);
+  XrFrameEndInfo ei{};
+  ei.type = XR_TYPE_FRAME_END_INFO;
+  ei.displayTime = fs.predictedDisplayTime;
+  ei.environmentBlendMode = XR_ENVIRONMENT_BLEND_MODE_OPAQUE;
+  REQUIRE(xrEndFrame(session, &ei) == XR_SUCCESS);
+  return fs.predictedDisplayTime;
+}
+
+Joints App::locate(XrHandEXT hand, XrSpace base, XrTime time, bool velocities, uint32_t joint_count) const {
+  Joints j;
+  XrHandJointVelocitiesEXT vel{};
+  vel.type = XR_TYPE_HAND_JOINT_VELOCITIES_EXT;
+  vel.jointCount = XR_HAND_JOINT_COUNT_EXT;
+  vel.jointVelocities = j.vel.data();
+  XrHandJointLocationsEXT out{};
+  out.type = XR_TYPE_HAND_JOINT_LOCATIONS_EXT;
+  out.next = velocities ? &vel : nullptr;
+  out.jointCount = joint_count;
+  out.jointLocations = j.loc.data();
+  XrHandJointsLocateInfoEXT info{};
+  info.type = XR_TYPE_HAND_JOINTS_LOCATE_INFO_EXT;
+  info.baseSpace = base;
+  info.time = time;
+  j.result = locate_joints(trackers[hand - 1], &info, &out);
+  j.active = out.isActive;
+  return j;
+}
+
+XrPosef App::space_pose(XrSpace space, XrSpace base, XrTime time) const {
+  XrSpaceLocation loc{};
+  loc.type = XR_TYPE_SPACE_LOCATION;
+  REQUIRE(xrLocateSpace(space, base, time, &loc) == XR_SUCCESS);
+  REQUIRE((loc.locationFlags & XR_SPACE_LOCATION_POSITION_VALID_BIT) != 0);
+  return loc.pose;
+}
+
+void App::shutdown(bool keep_trackers) {
+  if (shut_) return;
+  shut_ = true;
+  if (!keep_trackers && destroy_tracker)
+    for (auto& t : trackers) CHECK(destroy_tracker(t) == XR_SUCCESS);
+  CHECK(xrRequestExitSession(session) == XR_SUCCESS);
+  poll_until(XR_SESSION_STATE_STOPPING);
+  CHECK(xrEndSession(session) == XR_SUCCESS);
+  poll_until(XR_SESSION_STATE_EXITING);
+  for (XrSpace s : {local, stage, view}) CHECK(xrDestroySpace(s) == XR_SUCCESS);
+  CHECK(xrDestroySession(session) == XR_SUCCESS);
+  CHECK(xrDestroyInstance(instance) == XR_SUCCESS);
+}
+
+App::~App() {
+  if (!shut_ && instance != XR_NULL_HANDLE) xrDestroyInstance(instance);
+}
+
+void accumulate_error(const Joints& j, const XrPosef& local_from_base, const Pose& truth, double& sum, long& count) {
+  const xr::Rigid m = xr::to_rigid(local_from_base);
+  for (int k = 0; k < kJointCount; ++k) {
+    if (!joint_tracked(truth, k) || !(j.loc[k].locationFlags & XR_SPACE_LOCATION_POSITION_TRACKED_BIT)) continue;
+    const Eigen::Vector3d p = m * xr::to_eigen(j.loc[k].pose.position);
+    sum += (p - truth.row(k).transpose()).norm();
+    ++count;
+  }
+}
+
+void accumulate_error(const Pose& pose, const Pose& truth, double& sum, long& count) {
+  for (int k = 0; k < kJointCount; ++k) {
+    if (!joint_tracked(truth, k) || !joint_tracked(pose, k)) continue;
+    sum += (pose.row(k) - truth.row(k)).norm();
+    ++count;
+  }
+}
+
+}  // namespace hs::xrtest

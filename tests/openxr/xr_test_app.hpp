@@ -1,0 +1,89 @@
+#pragma once
+// A small headless OpenXR app for the tests: app -> real loader -> (layers) -> the
+// HandSteady replay runtime. Builds synthetic clean/noisy tracks, sets the loader's and
+// the runtime's environment, and measures joint errors against the clean track.
+#include <openxr/openxr.h>
+
+#include "handsteady/corrupt.hpp"
+#include "handsteady/track.hpp"
+
+#include <array>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace hs::xrtest {
+
+constexpr XrTime kShimEpochNs = 1'000'000'000;  // XrTime of the track's first row (sim clock)
+constexpr const char* kLayer = "XR_APILAYER_NOVENDOR_handsteady";
+constexpr const char* kCoreValidation = "XR_APILAYER_LUNARG_core_validation";
+
+struct TrackFiles {
+  std::filesystem::path dir, clean_csv, noisy_csv;
+  Track clean, noisy;
+  std::array<HandSeries, 2> clean_series, noisy_series;  // [XrHandEXT - 1]
+  double t0 = 0.0;
+};
+
+// Smooth synthetic motion of both hands (90 Hz rows) and a noisy copy: the tracker preset
+// with its jitter raised to jitter_sd_m (so that there is noise worth removing).
+TrackFiles make_tracks(const std::string& name, double duration_s, double jitter_sd_m = 0.003,
+                       bool with_gap = false);
+
+// Clears every variable the loader, the layer and the runtime read, then points the
+// loader at the replay runtime replaying `noisy_csv` (sim clock at 90 Hz).
+void reset_env(const TrackFiles& files);
+void set_env(const char* name, const std::string& value);
+void unset_env(const char* name);
+// XR_API_LAYER_PATH = build-tree layer folder + the system's explicit.d; XR_ENABLE_API_LAYERS.
+void enable_layers(const std::vector<std::string>& names);
+// An implicit-layer folder under `xdg` (XDG_DATA_HOME) holding the layer's implicit manifest.
+void install_implicit_layer(const std::filesystem::path& xdg);
+
+double track_time(const TrackFiles& f, XrTime t);
+
+struct Joints {
+  XrResult result = XR_ERROR_RUNTIME_FAILURE;
+  XrBool32 active = XR_FALSE;
+  std::array<XrHandJointLocationEXT, XR_HAND_JOINT_COUNT_EXT> loc{};
+  std::array<XrHandJointVelocityEXT, XR_HAND_JOINT_COUNT_EXT> vel{};
+};
+
+class App {
+ public:
+  // Creates instance (XR_EXT_hand_tracking unless hand_tracking is false, XR_MND_headless),
+  // system, session (run to FOCUSED), LOCAL/STAGE/VIEW spaces and both hand trackers.
+  explicit App(bool hand_tracking = true);
+  ~App();
+  App(const App&) = delete;
+  App& operator=(const App&) = delete;
+
+  // xrWaitFrame/xrBeginFrame/xrEndFrame; returns the predicted display time.
+  XrTime frame();
+  Joints locate(XrHandEXT hand, XrSpace base, XrTime time, bool velocities = false, uint32_t joint_count = 26) const;
+  // Pose of `space` in `base` at time (asserts validity).
+  XrPosef space_pose(XrSpace space, XrSpace base, XrTime time) const;
+  // Ends the session cleanly (STOPPING -> IDLE -> EXITING) and destroys trackers explicitly
+  // unless keep_trackers (then xrDestroySession must drop them).
+  void shutdown(bool keep_trackers = false);
+
+  XrInstance instance = XR_NULL_HANDLE;
+  XrSession session = XR_NULL_HANDLE;
+  XrSpace local = XR_NULL_HANDLE, stage = XR_NULL_HANDLE, view = XR_NULL_HANDLE;
+  std::array<XrHandTrackerEXT, 2> trackers{};  // [left, right]
+  PFN_xrCreateHandTrackerEXT create_tracker = nullptr;
+  PFN_xrDestroyHandTrackerEXT destroy_tracker = nullptr;
+  PFN_xrLocateHandJointsEXT locate_joints = nullptr;
+
+ private:
+  void poll_until(XrSessionState state);
+  bool shut_ = false;
+};
+
+// Mean distance (m) between valid joint positions (converted to LOCAL with local_from_base)
+// and `truth`, over joints tracked in truth; adds to sum/count.
+void accumulate_error(const Joints& j, const XrPosef& local_from_base, const Pose& truth, double& sum, long& count);
+// Mean distance between `pose` and `truth` over joints tracked in both.
+void accumulate_error(const Pose& pose, const Pose& truth, double& sum, long& count);
+
+}  // namespace hs::xrtest

@@ -1,0 +1,457 @@
+// Multi-STGAE engine: streaming vs window parity, float vs double, no allocation per
+// frame, translation equivariance, hand-computed tiny models, the PoseFilter adapter.
+#include "handsteady/stgae_engine.hpp"
+
+#include "handsteady/skeleton.hpp"
+#include "test_support.hpp"
+
+#include <atomic>
+#include <cmath>
+#include <cstdlib>
+#include <new>
+#include <random>
+
+// ---- allocation counting: global operator new, and (outside sanitizer builds) malloc ----
+namespace {
+std::atomic<bool> g_counting{false};
+std::atomic<long> g_allocations{0};
+void note_allocation() {
+  if (g_counting.load(std::memory_order_relaxed)) g_allocations.fetch_add(1, std::memory_order_relaxed);
+}
+}  // namespace
+
+void* operator new(std::size_t n) {
+  note_allocation();
+  if (void* p = std::malloc(n ? n : 1)) return p;
+  throw std::bad_alloc();
+}
+void* operator new[](std::size_t n) {
+  note_allocation();
+  if (void* p = std::malloc(n ? n : 1)) return p;
+  throw std::bad_alloc();
+}
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete[](void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+#define HS_COUNT_MALLOC 0
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer) || __has_feature(memory_sanitizer)
+#define HS_COUNT_MALLOC 0
+#endif
+#endif
+#if !defined(HS_COUNT_MALLOC) && defined(__GLIBC__)
+#define HS_COUNT_MALLOC 1
+#endif
+#ifndef HS_COUNT_MALLOC
+#define HS_COUNT_MALLOC 0
+#endif
+
+#if HS_COUNT_MALLOC
+// Eigen allocates with malloc, not operator new: interpose glibc's malloc family too
+// (sanitizers interpose it themselves, so there only operator new is counted).
+extern "C" {
+void* __libc_malloc(std::size_t);
+void* __libc_calloc(std::size_t, std::size_t);
+void* __libc_realloc(void*, std::size_t);
+void* __libc_memalign(std::size_t, std::size_t);
+void __libc_free(void*);
+void* malloc(std::size_t n) noexcept {
+  note_allocation();
+  return __libc_malloc(n);
+}
+void* calloc(std::size_t a, std::size_t b) noexcept {
+  note_allocation();
+  return __libc_calloc(a, b);
+}
+void* realloc(void* p, std::size_t n) noexcept {
+  note_allocation();
+  return __libc_realloc(p, n);
+}
+void free(void* p) noexcept { __libc_free(p); }
+int posix_memalign(void** out, std::size_t align, std::size_t n) noexcept {
+  note_allocation();
+  void* p = __libc_memalign(align, n);
+  if (!p) return ENOMEM;
+  *out = p;
+  return 0;
+}
+void* aligned_alloc(std::size_t align, std::size_t n) noexcept {
+  note_allocation();
+  return __libc_memalign(align, n);
+}
+void* memalign(std::size_t align, std::size_t n) noexcept {
+  note_allocation();
+  return __libc_memalign(align, n);
+}
+}
+#endif
+
+namespace {
+
+using hs::StgaeConfig;
+
+StgaeConfig small_causal(hs::StgaeCVariant cv = hs::StgaeCVariant::Dot, bool gates = true, bool predict = true) {
+  StgaeConfig c;
+  c.window = 4;
+  c.horizon = 2;
+  c.encoder_channels = {6, 8, 8};
+  c.denoise_decoder_channels = {8, 6, 3};
+  c.predict_decoder_channels = {8, 6, 3};
+  c.temporal_kernel = 3;
+  c.padding = hs::StgaePadding::Causal;
+  c.attention = hs::StgaeAttention::ABC;
+  c.c_variant = cv;
+  c.gates = gates;
+  c.predict = predict;
+  return c;
+}
+
+template <class S>
+hs::StgaeFrames<S> frames_from(const std::vector<float>& v, int n) {
+  const auto L = static_cast<Eigen::Index>(v.size()) / (3 * n);
+  hs::StgaeFrames<S> f(L, 3 * n);
+  for (Eigen::Index i = 0; i < f.size(); ++i) f.data()[i] = static_cast<S>(v[static_cast<size_t>(i)]);
+  return f;
+}
+
+// Synthetic input with holes: a few joints missing in some frames, one joint missing at first.
+std::vector<float> holey_input(const StgaeConfig& c, int frames, std::uint64_t seed) {
+  auto v = hs::synthetic_hand_input(c, frames, seed);
+  const int n = c.joint_count();
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  auto kill = [&](int t, int j) {
+    for (int k = 0; k < 3; ++k) v[static_cast<size_t>((t * n + j) * 3 + k)] = nan;
+  };
+  for (int t = 0; t < 3 && t < frames; ++t) kill(t, 10);  // never seen at the start
+  if (frames > 6) {
+    kill(5, 3);
+    kill(6, 3);
+    kill(6, hs::idx(hs::Joint::Wrist));
+  }
+  return v;
+}
+
+double max_abs_diff(std::span<const float> a, const float* b) {
+  double m = 0.0;
+  for (size_t i = 0; i < a.size(); ++i) m = std::max(m, std::abs(static_cast<double>(a[i]) - static_cast<double>(b[i])));
+  return m;
+}
+
+}  // namespace
+
+TEST_CASE("streaming equals window mode on small causal models") {
+  struct Variant {
+    hs::StgaeCVariant cv;
+    bool gates, predict;
+    hs::StgaeAttention att;
+  };
+  const Variant variants[] = {{hs::StgaeCVariant::Dot, true, true, hs::StgaeAttention::ABC},
+                              {hs::StgaeCVariant::Gat, true, true, hs::StgaeAttention::ABC},
+                              {hs::StgaeCVariant::Dot, false, false, hs::StgaeAttention::ABC},
+                              {hs::StgaeCVariant::Dot, false, true, hs::StgaeAttention::AB}};
+  for (const auto& var : variants) {
+    auto c = small_causal(var.cv, var.gates, var.predict);
+    c.attention = var.att;
+    CAPTURE(hs::to_json(c));
+    const auto w = hs::random_stgae_weights(c, 7, 1.5);
+    const auto net = hs::make_stgae_net<float>(c, w);
+    const int n = c.joint_count();
+    const int L = 13;  // > 3 windows, so every ring wraps
+    const auto input = holey_input(c, L, 3);
+    const auto all = hs::stgae_window_forward(*net, frames_from<float>(input, n));
+    hs::StgaeStream<float> stream(net);
+    for (int t = 0; t < L; ++t) {
+      REQUIRE(stream.push(std::span<const float>(input.data() + static_cast<size_t>(t * 3 * n), static_cast<size_t>(3 * n))));
+      CHECK(max_abs_diff(stream.denoised(), all.denoised.row(t).data()) <= 1e-5);
+      if (c.predict && (t == 2 || t == 7 || t == L - 1)) {
+        // The prediction at frame t is window mode over the frames up to t.
+        std::vector<float> prefix(input.begin(), input.begin() + static_cast<std::ptrdiff_t>((t + 1) * 3 * n));
+        const auto part = hs::stgae_window_forward(*net, frames_from<float>(prefix, n));
+        for (int i = 0; i < c.horizon; ++i) CHECK(max_abs_diff(stream.predicted(i), part.predicted.row(i).data()) <= 1e-5);
+      }
+    }
+    // Holes are filled and the model really changes the positions.
+    CHECK(all.denoised.allFinite());
+    double moved = 0.0;
+    for (Eigen::Index i = 0; i < all.denoised.size(); ++i)
+      if (std::isfinite(input[static_cast<size_t>(i)]))
+        moved = std::max(moved, std::abs(static_cast<double>(all.denoised.data()[i] - input[static_cast<size_t>(i)])));
+    CHECK(moved > 1e-3);
+    // reset() starts a new sequence: the same input gives the same outputs again.
+    stream.reset();
+    for (int t = 0; t < 5; ++t) stream.push(std::span<const float>(input.data() + static_cast<size_t>(t * 3 * n), static_cast<size_t>(3 * n)));
+    CHECK(max_abs_diff(stream.denoised(), all.denoised.row(4).data()) <= 1e-5);
+  }
+}
+
+TEST_CASE("float and double window modes agree (causal and centred)") {
+  for (auto pad : {hs::StgaePadding::Causal, hs::StgaePadding::Centred}) {
+    auto c = small_causal();
+    c.padding = pad;
+    c.window = 6;
+    const auto w = hs::random_stgae_weights(c, 11, 1.0);
+    const int n = c.joint_count();
+    const auto input = holey_input(c, c.window, 5);
+    const auto yf = hs::stgae_window_forward(*hs::make_stgae_net<float>(c, w), frames_from<float>(input, n));
+    const auto yd = hs::stgae_window_forward(*hs::make_stgae_net<double>(c, w), frames_from<double>(input, n));
+    CHECK((yf.denoised.cast<double>() - yd.denoised).cwiseAbs().maxCoeff() <= 1e-5);
+    CHECK((yf.predicted.cast<double>() - yd.predicted).cwiseAbs().maxCoeff() <= 1e-5);
+    CHECK(yd.predicted.rows() == c.horizon);
+    CHECK(yd.denoised.allFinite());
+  }
+}
+
+TEST_CASE("translating the input translates every output by the same vector") {
+  for (auto pad : {hs::StgaePadding::Causal, hs::StgaePadding::Centred}) {
+    for (auto cv : {hs::StgaeCVariant::Dot, hs::StgaeCVariant::Gat}) {
+      auto c = small_causal(cv);
+      c.padding = pad;
+      c.window = 5;
+      const auto w = hs::random_stgae_weights(c, 21, 1.0);
+      const auto net = hs::make_stgae_net<double>(c, w);
+      const int n = c.joint_count();
+      auto input = holey_input(c, c.window, 9);
+      const auto x = frames_from<double>(input, n);
+      hs::StgaeFrames<double> moved = x;
+      const double shift[3] = {0.37, -1.25, 2.5};
+      for (Eigen::Index i = 0; i < moved.size(); ++i) moved.data()[i] += shift[i % 3];
+      const auto a = hs::stgae_window_forward(*net, x);
+      const auto b = hs::stgae_window_forward(*net, moved);
+      for (Eigen::Index t = 0; t < a.denoised.rows(); ++t)
+        for (Eigen::Index k = 0; k < a.denoised.cols(); ++k) CHECK(b.denoised(t, k) - a.denoised(t, k) == doctest::Approx(shift[k % 3]).epsilon(1e-9));
+      for (Eigen::Index t = 0; t < a.predicted.rows(); ++t)
+        for (Eigen::Index k = 0; k < a.predicted.cols(); ++k) CHECK(b.predicted(t, k) - a.predicted(t, k) == doctest::Approx(shift[k % 3]).epsilon(1e-9));
+    }
+  }
+}
+
+namespace {
+// All-zero weights with identity-like BN (weight 1, bias 0, mean 0, var 1).
+hs::StgaeWeights zero_weights(const StgaeConfig& c) {
+  hs::StgaeWeights w;
+  for (const auto& s : hs::stgae_tensor_specs(c)) {
+    hs::Tensor t;
+    t.shape = s.shape;
+    const bool one = s.name.ends_with("bn.weight") || s.name.ends_with("running_var");
+    t.data.assign(s.numel(), one ? 1.0f : 0.0f);
+    w.tensors.emplace(s.name, std::move(t));
+  }
+  return w;
+}
+}  // namespace
+
+TEST_CASE("a tiny hand-computed model: gcn layout, graph orientation, causal temporal taps, offset output") {
+  // enc: one block 6 -> 1 whose gcn takes channel 0 (x - wrist_x) / 0.1 into subset 1 (bones) and
+  // whose temporal conv copies tap 0 (the OLDEST of kt = 3 frames). den: one block 1 -> 3 whose
+  // residual copies the latent into the x offset. B[1][palm][thumb_tip] = 1 adds an asymmetric edge.
+  StgaeConfig c;
+  c.window = 4;
+  c.encoder_channels = {6, 1};
+  c.denoise_decoder_channels = {1, 3};
+  c.temporal_kernel = 3;
+  c.attention = hs::StgaeAttention::AB;
+  c.gates = false;
+  c.predict = false;
+  auto w = zero_weights(c);
+  const int n = hs::kJointCount;
+  const int palm = hs::idx(hs::Joint::Palm), wrist = hs::idx(hs::Joint::Wrist), tip = hs::idx(hs::Joint::ThumbTip);
+  w.tensors.at("enc.0.gcn.conv.weight").data[1 * 6 + 0] = 1.0f;  // row k*Cout + c = 1, input channel 0
+  w.tensors.at("enc.0.B").data[static_cast<size_t>((1 * n + palm) * n + tip)] = 1.0f;
+  w.tensors.at("enc.0.tcn.conv.weight").data[0] = 1.0f;  // [0][0][tap 0]
+  w.tensors.at("den.0.res.conv.weight").data[0] = 1.0f;  // output channel 0 (x) <- latent
+  const auto net = hs::make_stgae_net<double>(c, w);
+
+  // Three frames; joint u's x coordinate relative to the wrist varies per frame.
+  const int L = 3;
+  hs::StgaeFrames<double> in(L, 3 * n);
+  for (int t = 0; t < L; ++t)
+    for (int j = 0; j < n; ++j) {
+      in(t, 3 * j + 0) = 0.5 + 0.01 * j * (t + 1);
+      in(t, 3 * j + 1) = 1.0 - 0.002 * j;
+      in(t, 3 * j + 2) = -0.3 + 0.001 * t;
+    }
+  const auto y = hs::stgae_window_forward(*net, in);
+  const auto A1 = hs::hand_partition(hs::xr_hand_skeleton()).A[1];
+  const double s = 1.0 / std::sqrt(1.0 + 1e-5);  // every BN: 1 / sqrt(var + eps)
+  for (int t = 0; t < L; ++t) {
+    for (int v = 0; v < n; ++v) {
+      // Latent of frame t uses frame t-2 (tap 0 of a causal kernel 3), zero padding before.
+      double e = 0.0;
+      if (t >= 2) {
+        const int src = t - 2;
+        double g = 0.0;
+        for (int u = 0; u < n; ++u) {
+          const double f0 = (in(src, 3 * u) - in(src, 3 * wrist)) / 0.1;
+          const double h = std::max(0.0, s * f0);
+          const double m = A1(u, v) + (u == palm && v == tip ? 1.0 : 0.0);
+          g += h * m;
+        }
+        e = std::max(0.0, s * g);
+      }
+      const double expect_x = in(t, 3 * v) + 0.1 * s * e;  // den residual BN scale s
+      CHECK(y.denoised(t, 3 * v) == doctest::Approx(expect_x).epsilon(1e-12));
+      CHECK(y.denoised(t, 3 * v + 1) == doctest::Approx(in(t, 3 * v + 1)).epsilon(1e-12));
+    }
+  }
+  // The asymmetric edge reaches the thumb tip from the palm, not the other way round.
+  CHECK(y.denoised(2, 3 * tip) > in(2, 3 * tip) + 0.01);
+  // Streaming computes the same.
+  hs::StgaeStream<double> st(net);
+  for (int t = 0; t < L; ++t) {
+    REQUIRE(st.push(std::span<const double>(in.row(t).data(), static_cast<size_t>(3 * n))));
+    for (int k = 0; k < 3 * n; ++k) CHECK(st.denoised()[static_cast<size_t>(k)] == doctest::Approx(y.denoised(t, k)).epsilon(1e-12));
+  }
+}
+
+TEST_CASE("hole filling: a joint never seen takes the wrist; a lost joint holds its last value") {
+  StgaeConfig c = small_causal();
+  c.predict = false;
+  auto w = zero_weights(c);  // all-zero offsets: the output is the filled input
+  const auto net = hs::make_stgae_net<double>(c, w);
+  const int n = hs::kJointCount;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  hs::StgaeFrames<double> in(2, 3 * n);
+  for (int j = 0; j < n; ++j)
+    for (int k = 0; k < 3; ++k) in(0, 3 * j + k) = in(1, 3 * j + k) = 0.1 * j + k;
+  for (int k = 0; k < 3; ++k) {
+    in(0, 3 * 7 + k) = nan;  // joint 7 missing at first
+    in(1, 3 * 9 + k) = nan;  // joint 9 lost in frame 1
+    in(1, 3 * 1 + k) += 1.0;  // wrist moves
+  }
+  const auto y = hs::stgae_window_forward(*net, in);
+  // BN of zero convs with bias 0 and mean 0 gives exactly zero offsets.
+  for (int k = 0; k < 3; ++k) {
+    CHECK(y.denoised(0, 3 * 7 + k) == doctest::Approx(in(0, 3 * 1 + k)));
+    CHECK(y.denoised(1, 3 * 9 + k) == doctest::Approx(in(0, 3 * 9 + k)));
+  }
+  hs::StgaeFrames<double> empty = hs::StgaeFrames<double>::Constant(1, 3 * n, nan);
+  CHECK_THROWS_AS(hs::stgae_window_forward(*net, empty), hs::InputError);
+  hs::StgaeStream<double> st(net);
+  CHECK_FALSE(st.push(std::span<const double>(empty.data(), static_cast<size_t>(3 * n))));
+  CHECK(st.frames_pushed() == 0);
+}
+
+TEST_CASE("no heap allocation per frame after warm-up") {
+  const auto c = small_causal(hs::StgaeCVariant::Dot, true, true);
+  const auto net = hs::make_stgae_net<float>(c, hs::random_stgae_weights(c, 5, 1.0));
+  auto cg = small_causal(hs::StgaeCVariant::Gat, true, true);
+  const auto netg = hs::make_stgae_net<float>(cg, hs::random_stgae_weights(cg, 6, 1.0));
+  const int n = c.joint_count();
+  const auto input = holey_input(c, 40, 4);
+  hs::StgaeStream<float> a(net), b(netg);
+  auto frame = [&](int t) { return std::span<const float>(input.data() + static_cast<size_t>(t * 3 * n), static_cast<size_t>(3 * n)); };
+  for (int t = 0; t < 5; ++t) a.push(frame(t)), b.push(frame(t));
+  g_allocations = 0;
+  g_counting = true;
+  bool ok = true;
+  for (int t = 5; t < 40; ++t) ok = a.push(frame(t)) && b.push(frame(t)) && ok;
+  a.reset();
+  ok = a.push(frame(0)) && ok;
+  g_counting = false;
+  CHECK(ok);
+  CHECK(g_allocations.load() == 0);
+  const std::string counted = HS_COUNT_MALLOC ? "yes" : "no (sanitizer build: operator new only)";
+  MESSAGE("malloc counted too: " << counted);
+  // The counter works: an allocation while counting is seen.
+  g_counting = true;
+  auto* p = new std::vector<int>(100);
+  g_counting = false;
+  delete p;
+  CHECK(g_allocations.load() >= 1);
+}
+
+TEST_CASE("window mode checks its input; streaming needs a causal model") {
+  auto c = small_causal();
+  c.padding = hs::StgaePadding::Centred;
+  const auto net = hs::make_stgae_net<double>(c, hs::random_stgae_weights(c, 1));
+  const int n = c.joint_count();
+  const auto in = frames_from<double>(hs::synthetic_hand_input(c, c.window + 1, 1), n);
+  CHECK_THROWS_AS(hs::stgae_window_forward(*net, in), hs::InputError);  // centred head needs L = T
+  CHECK_THROWS_AS(hs::stgae_window_forward(*net, hs::StgaeFrames<double>(2, 3 * n - 3)), hs::InputError);
+  CHECK_THROWS_AS(hs::StgaeStream<double>{net}, std::invalid_argument);
+}
+
+namespace {
+std::shared_ptr<const hs::StgaeModel> small_model(const StgaeConfig& c, std::uint64_t seed) {
+  auto w = hs::random_stgae_weights(c, seed, 1.0);
+  auto ref = hs::make_stgae_reference(c, w, hs::synthetic_hand_input(c, c.window, seed));
+  return hs::make_stgae_model(c, std::move(w), std::move(ref));
+}
+hs::Pose pose_at(const std::vector<float>& v, int t) {
+  hs::Pose p;
+  for (int j = 0; j < hs::kJointCount; ++j)
+    for (int k = 0; k < 3; ++k) p(j, k) = static_cast<double>(v[static_cast<size_t>((t * hs::kJointCount + j) * 3 + k)]);
+  return p;
+}
+}  // namespace
+
+TEST_CASE("PoseFilter adapter: resampling onto the model grid, horizons, gaps") {
+  const auto c = small_causal();
+  const auto model = small_model(c, 3);
+  const double dt = 1.0 / c.rate_hz;
+  const auto src = hs::synthetic_hand_input(c, 12, 8);
+
+  // Input exactly on the model grid: the filter pushes each frame once, so it reproduces the stream.
+  auto f = hs::make_stgae_filter(model, 0.0);
+  hs::StgaeStream<float> ref(model->net);
+  hs::Pose out;
+  for (int t = 0; t < 12; ++t) {
+    REQUIRE(f->push(1.0 + t * dt, pose_at(src, t)));
+    ref.push(std::span<const float>(src.data() + static_cast<size_t>(t * 78), 78));
+    f->estimate(1.0 + t * dt, out);
+    for (int j = 0; j < hs::kJointCount; ++j)
+      for (int k = 0; k < 3; ++k) CHECK(out(j, k) == doctest::Approx(static_cast<double>(ref.denoised()[static_cast<size_t>(3 * j + k)])).epsilon(1e-6));
+    // Half a period ahead: halfway to the first predicted frame.
+    f->estimate(1.0 + (t + 0.5) * dt, out);
+    const double mid = 0.5 * (static_cast<double>(ref.denoised()[0]) + static_cast<double>(ref.predicted(0)[0]));
+    CHECK(out(0, 0) == doctest::Approx(mid).epsilon(1e-6));
+    f->estimate(1.0 + (t + 2.0) * dt, out);  // the second predicted frame
+    CHECK(out(0, 0) == doctest::Approx(static_cast<double>(ref.predicted(1)[0])).epsilon(1e-6));
+  }
+  CHECK_FALSE(f->push(1.0, pose_at(src, 0)));  // time must increase
+  CHECK(f->last_time() == doctest::Approx(1.0 + 11 * dt));
+
+  // At twice the model rate, every other input sample lands on the grid.
+  auto g = hs::make_stgae_filter(model, 0.0);
+  for (int t = 0; t < 6; ++t) {
+    g->push(1.0 + t * dt, pose_at(src, t));
+    if (t + 1 < 6) {
+      hs::Pose half = 0.5 * (pose_at(src, t) + pose_at(src, t + 1));
+      g->push(1.0 + (t + 0.5) * dt, half);
+    }
+  }
+  f = hs::make_stgae_filter(model, 0.0);
+  for (int t = 0; t < 6; ++t) f->push(1.0 + t * dt, pose_at(src, t));
+  hs::Pose a, b;
+  f->estimate(1.0 + 5 * dt, a);
+  g->estimate(1.0 + 5 * dt, b);
+  CHECK((a - b).cwiseAbs().maxCoeff() <= 1e-5);
+
+  // A gap longer than kStgaeGapResetS resets: afterwards the filter behaves like a fresh one.
+  auto h = hs::make_stgae_filter(model, 0.0);
+  for (int t = 0; t < 6; ++t) h->push(1.0 + t * dt, pose_at(src, t));
+  h->push(1.0 + 6 * dt, hs::untracked_pose());  // hand lost
+  h->estimate(1.0 + 6 * dt, a);
+  CHECK(a.allFinite());  // still within the gap tolerance
+  const double t0 = 1.0 + 6 * dt + hs::kStgaeGapResetS + 0.05;
+  auto fresh = hs::make_stgae_filter(model, 0.0);
+  for (int t = 0; t < 4; ++t) {
+    h->push(t0 + t * dt, pose_at(src, 6 + t));
+    fresh->push(t0 + t * dt, pose_at(src, 6 + t));
+  }
+  h->estimate(t0 + 3 * dt, a);
+  fresh->estimate(t0 + 3 * dt, b);
+  CHECK((a - b).cwiseAbs().maxCoeff() <= 1e-9);
+
+  // Before any input: nothing to report. Centred models and negative horizons are refused.
+  auto e = hs::make_stgae_filter(model, 0.05);
+  e->estimate(0.0, a);
+  CHECK_FALSE(hs::any_joint_tracked(a));
+  CHECK_THROWS_AS(hs::make_stgae_filter(model, -0.1), std::invalid_argument);
+  auto cc = c;
+  cc.padding = hs::StgaePadding::Centred;
+  CHECK_THROWS_AS(hs::make_stgae_filter(small_model(cc, 2), 0.0), std::invalid_argument);
+}

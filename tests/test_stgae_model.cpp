@@ -1,0 +1,257 @@
+// Multi-STGAE configuration JSON, tensor specs and the .hsm model file (round trip and
+// every loader error path).
+#include "handsteady/stgae_model.hpp"
+
+#include "handsteady/stgae_engine.hpp"
+#include "test_support.hpp"
+
+#include <cstring>
+#include <fstream>
+#include <set>
+
+namespace {
+
+hs::StgaeConfig small_config() {
+  hs::StgaeConfig c;
+  c.window = 4;
+  c.horizon = 2;
+  c.encoder_channels = {6, 8, 8};
+  c.denoise_decoder_channels = {8, 4, 3};
+  c.predict_decoder_channels = {8, 4, 3};
+  c.temporal_kernel = 3;
+  return c;
+}
+
+std::vector<std::uint8_t> small_file(const hs::StgaeConfig& c, std::uint64_t seed = 1) {
+  const auto w = hs::random_stgae_weights(c, seed);
+  return hs::serialize_hsm(c, w, hs::make_stgae_reference(c, w, hs::synthetic_hand_input(c, c.window, seed)));
+}
+
+// FNV-1a 64 written independently of the loader.
+void reseal(std::vector<std::uint8_t>& b) {
+  std::uint64_t h = 0xcbf29ce484222325ULL;
+  for (size_t i = 0; i + 8 < b.size(); ++i) h = (h ^ b[i]) * 0x100000001b3ULL;
+  for (int i = 0; i < 8; ++i) b[b.size() - 8 + static_cast<size_t>(i)] = static_cast<std::uint8_t>(h >> (8 * i));
+}
+
+size_t find_bytes(const std::vector<std::uint8_t>& b, const std::string& s) {
+  for (size_t i = 0; i + s.size() <= b.size(); ++i)
+    if (std::memcmp(b.data() + i, s.data(), s.size()) == 0) return i;
+  FAIL("not found: " << s);
+  return 0;
+}
+
+std::string load_error(const std::vector<std::uint8_t>& b) {
+  try {
+    (void)hs::parse_hsm(b, "model.hsm");
+  } catch (const hs::InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+}  // namespace
+
+TEST_CASE("config JSON round trip, defaults and errors") {
+  auto c = small_config();
+  c.padding = hs::StgaePadding::Centred;
+  c.c_variant = hs::StgaeCVariant::Gat;
+  c.attention = hs::StgaeAttention::AB;
+  c.gates = false;
+  c.meta_json = R"({"epochs":3})";
+  const auto back = hs::parse_stgae_config(hs::to_json(c), "x.json");
+  CHECK(back.window == 4);
+  CHECK(back.horizon == 2);
+  CHECK(back.encoder_channels == c.encoder_channels);
+  CHECK(back.padding == hs::StgaePadding::Centred);
+  CHECK(back.c_variant == hs::StgaeCVariant::Gat);
+  CHECK(back.attention == hs::StgaeAttention::AB);
+  CHECK_FALSE(back.gates);
+  CHECK(back.meta_json == R"({"epochs":3})");
+  CHECK(hs::parse_stgae_config("{}").window == hs::StgaeConfig{}.window);
+
+  auto err = [](const std::string& json) {
+    try {
+      (void)hs::parse_stgae_config(json, "cfg.json");
+    } catch (const hs::InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  CHECK(err(R"({"windw": 4})").find("windw") != std::string::npos);
+  CHECK(err(R"({"window": "4"})").find("window") != std::string::npos);
+  CHECK(err(R"({"padding": "acausal"})").find("padding") != std::string::npos);
+  CHECK(err(R"({"temporal_kernel": 4})").find("temporal_kernel") != std::string::npos);
+  CHECK(err(R"({"encoder_channels": [3, 16]})").find("encoder_channels") != std::string::npos);
+  CHECK(err(R"({"denoise_decoder_channels": [64, 2]})").find("denoise_decoder_channels") != std::string::npos);
+  CHECK(err(R"({"skeleton": "paw"})").find("skeleton") != std::string::npos);
+  CHECK(err("[1,").find("cfg.json") != std::string::npos);
+  CHECK(err(R"({"rate_hz": 4444e4444444})").find("cfg.json") != std::string::npos);  // found by the fuzzer
+}
+
+TEST_CASE("tensor specs: unique names, shapes following the configuration") {
+  auto c = small_config();
+  const auto specs = hs::stgae_tensor_specs(c);
+  std::set<std::string> names;
+  for (const auto& s : specs) CHECK(names.insert(s.name).second);
+  auto shape = [&](const std::string& n) {
+    for (const auto& s : specs)
+      if (s.name == n) return s.shape;
+    FAIL("missing " << n);
+    return std::vector<int>{};
+  };
+  CHECK(shape("enc.0.gcn.conv.weight") == std::vector<int>{24, 6});
+  CHECK(shape("enc.1.B") == std::vector<int>{3, 26, 26});
+  CHECK(shape("enc.1.att.q.weight") == std::vector<int>{12, 8});
+  CHECK(shape("den.1.tcn.conv.weight") == std::vector<int>{3, 3, 3});
+  CHECK(shape("pre.lift.weight") == std::vector<int>{16, 8});
+  CHECK(shape("enc_gate.shared.conv.weight") == std::vector<int>{4, 8});
+  CHECK(shape("pre.1.tcn.conv.weight") == std::vector<int>{3, 3, 1});  // causal head: kernel 1
+  c.padding = hs::StgaePadding::Centred;
+  c.c_variant = hs::StgaeCVariant::Gat;
+  const auto centred = hs::stgae_tensor_specs(c);
+  bool head = false;
+  for (const auto& s : centred) {
+    if (s.name == "pre.head.tcn.conv.weight") head = s.shape == std::vector<int>{8, 8, 3};  // T - DT + 1
+    CHECK(s.name != "pre.lift.weight");
+    if (s.name == "enc.0.att.a") CHECK(s.shape == std::vector<int>{3, 6});
+  }
+  CHECK(head);
+  c.attention = hs::StgaeAttention::A;
+  c.gates = false;
+  c.predict = false;
+  for (const auto& s : hs::stgae_tensor_specs(c)) {
+    CHECK(s.name.find(".B") == std::string::npos);
+    CHECK(s.name.rfind("pre", 0) != 0);
+    CHECK(s.name.find("gate") == std::string::npos);
+  }
+}
+
+TEST_CASE(".hsm round trip (file) reproduces config, weights and reference") {
+  for (auto pad : {hs::StgaePadding::Causal, hs::StgaePadding::Centred}) {
+    auto c = small_config();
+    c.padding = pad;
+    const auto w = hs::random_stgae_weights(c, 4);
+    const auto ref = hs::make_stgae_reference(c, w, hs::synthetic_hand_input(c, c.window, 4));
+    const auto path = hs::test::temp_dir("stgae_model") / "m.hsm";
+    hs::save_hsm(path, c, w, ref);
+    const auto m = hs::load_hsm(path);
+    CHECK(hs::to_json(m->config) == hs::to_json(c));
+    CHECK(m->weights.tensors.size() == w.tensors.size());
+    for (const auto& [name, t] : w.tensors) {
+      CHECK(m->weights.at(name).shape == t.shape);
+      CHECK(m->weights.at(name).data == t.data);
+    }
+    CHECK(m->reference.denoised == ref.denoised);
+    CHECK(m->reference.predicted == ref.predicted);
+    REQUIRE(m->net);
+    // Serialising the loaded model gives the same bytes.
+    CHECK(hs::serialize_hsm(m->config, m->weights, m->reference) == hs::serialize_hsm(c, w, ref));
+    std::filesystem::remove_all(path.parent_path());
+  }
+  CHECK_THROWS_AS(hs::load_hsm("/nonexistent/m.hsm"), hs::InputError);
+}
+
+TEST_CASE(".hsm loader: every defect is an InputError naming the problem") {
+  const auto c = small_config();
+  const auto good = small_file(c);
+  REQUIRE(load_error(good).empty());
+
+  auto bad = good;
+  bad[0] = 'X';
+  CHECK(load_error(bad).find("bad magic") != std::string::npos);
+
+  bad = good;
+  bad[8] = 2;
+  reseal(bad);
+  CHECK(load_error(bad).find("version 2") != std::string::npos);
+
+  bad = good;
+  bad[good.size() / 2] ^= 0x40;
+  CHECK(load_error(bad).find("checksum") != std::string::npos);
+
+  // Truncated at many offsets (with and without a matching checksum): never a crash.
+  for (size_t len = 0; len < good.size(); len += 1 + len / 16) {
+    std::vector<std::uint8_t> t(good.begin(), good.begin() + static_cast<std::ptrdiff_t>(len));
+    CHECK_FALSE(load_error(t).empty());
+    if (t.size() >= 20) {
+      reseal(t);
+      const auto e = load_error(t);
+      CHECK_FALSE(e.empty());
+    }
+  }
+
+  // A wrong shape, correctly checksummed: named with expected and actual shape.
+  bad = good;
+  const std::string name = "enc.1.res.conv.bias";
+  const size_t at = find_bytes(bad, name) + name.size();  // then dtype, ndim, dims
+  REQUIRE(bad[at + 1] == 1);
+  bad[at + 2] = 9;  // [8] -> [9]
+  reseal(bad);
+  const auto e = load_error(bad);
+  CHECK(e.find(name) != std::string::npos);
+  CHECK(e.find("expected [8], got [9]") != std::string::npos);
+
+  // A tensor name that does not belong to the configuration.
+  bad = good;
+  bad[find_bytes(bad, "enc.1.res.conv.bias")] = 'x';
+  reseal(bad);
+  CHECK(load_error(bad).find("unexpected tensor") != std::string::npos);
+
+  // A weight that no longer reproduces the reference output.
+  bad = good;
+  {
+    const size_t p = find_bytes(bad, "den.1.res.conv.bias") + std::string("den.1.res.conv.bias").size() + 2 + 4;
+    bad[p + 3] ^= 0x20;  // flips an exponent bit of the first bias value
+  }
+  reseal(bad);
+  CHECK(load_error(bad).find("reference") != std::string::npos);
+
+  // A reference output changed, checksum fixed: the verification catches it.
+  bad = good;
+  bad[bad.size() - 8 - 4 * 10 + 2] ^= 0x7f;
+  reseal(bad);
+  CHECK(load_error(bad).find("does not reproduce its reference") != std::string::npos);
+
+  // Trailing bytes before the checksum.
+  bad = good;
+  bad.insert(bad.end() - 8, 0);
+  reseal(bad);
+  CHECK(load_error(bad).find("unexpected bytes") != std::string::npos);
+
+  // A configuration that does not parse.
+  bad = good;
+  bad[find_bytes(bad, "\"window\"") + 1] = 'W';
+  reseal(bad);
+  CHECK(load_error(bad).find("Window") != std::string::npos);
+
+  // Every single-bit corruption is detected.
+  for (size_t i = 0; i < good.size(); i += 7) {
+    bad = good;
+    bad[i] ^= 0x01;
+    CHECK_FALSE(load_error(bad).empty());
+  }
+}
+
+TEST_CASE("weights checks: missing, unexpected, wrong shape, negative variance") {
+  const auto c = small_config();
+  auto w = hs::random_stgae_weights(c, 2);
+  CHECK_NOTHROW(hs::check_stgae_weights(c, w));
+  auto m = w;
+  m.tensors.erase("enc.0.B");
+  CHECK_THROWS_WITH_AS(hs::check_stgae_weights(c, m), doctest::Contains("enc.0.B"), hs::InputError);
+  m = w;
+  m.tensors["extra"] = hs::Tensor{{1}, {0.0f}};
+  CHECK_THROWS_AS(hs::check_stgae_weights(c, m), hs::InputError);
+  m = w;
+  m.tensors.at("enc.0.tcn.bn.running_var").data[0] = -1.0f;
+  CHECK_THROWS_WITH_AS(hs::check_stgae_weights(c, m), doctest::Contains("variance"), hs::InputError);
+  m = w;
+  m.tensors.at("enc.0.gcn.conv.weight").shape = {6, 24};
+  CHECK_THROWS_AS(hs::check_stgae_weights(c, m), hs::InputError);
+  // make_stgae_model verifies a reference computed elsewhere.
+  auto ref = hs::make_stgae_reference(c, w, hs::synthetic_hand_input(c, c.window, 2));
+  CHECK_NOTHROW(hs::make_stgae_model(c, w, ref));
+  ref.denoised[5] += 0.01f;
+  CHECK_THROWS_AS(hs::make_stgae_model(c, w, ref), hs::InputError);
+}
