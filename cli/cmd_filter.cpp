@@ -1,16 +1,25 @@
 // handsteady filter: runs a streaming filter causally over a track, per hand.
 // Output row at time t uses only input rows of that hand with time <= t and is the
-// filter's estimate at t + horizon. See docs/FILTERS.md.
+// filter's estimate at t + horizon. --method stgae runs the Multi-STGAE streaming engine
+// the same way; --offline runs a centred model in window mode over the whole recording
+// (non-causal). See docs/FILTERS.md.
 #include "commands.hpp"
 
 #include "handsteady/error.hpp"
 #include "handsteady/filters.hpp"
+#include "handsteady/model_path.hpp"
+#include "handsteady/stgae_engine.hpp"
+#include "handsteady/stgae_model.hpp"
 #include "handsteady/track.hpp"
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include <algorithm>
 #include <array>
+#include <cmath>
+#include <filesystem>
+#include <limits>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -33,6 +42,11 @@ struct FilterOptions {
   double meas_sd_mm = KalmanParams{}.meas_sd_m * 1e3;
   double accel_psd = KalmanParams{}.accel_psd;
   double max_gap_ms = FilterConfig{}.max_gap_s * 1e3;
+  // Multi-STGAE.
+  std::string model_file;  // empty: hs::default_model_path()
+  bool offline = false;
+  std::shared_ptr<const StgaeModel> model;  // loaded once by run_filter (prepare_stgae)
+  std::string model_source;                 // the file it came from
 };
 
 FilterConfig classical_config(const FilterOptions& o, FilterMethod m) {
@@ -49,13 +63,14 @@ FilterConfig classical_config(const FilterOptions& o, FilterMethod m) {
 }
 
 // One entry per --method: how to build a filter for one hand and how to describe its
-// parameters in the output metadata. Another PoseFilter (e.g. a learned model) plugs in
-// by adding an entry here and its options in setup_filter(); reading, causal filtering
-// and writing are shared.
+// parameters in the output metadata, and (optionally) what to load once before that.
+// Another PoseFilter plugs in by adding an entry here and its options in setup_filter();
+// reading, causal filtering and writing are shared.
 struct MethodEntry {
   std::string_view name;
   std::unique_ptr<PoseFilter> (*make)(const FilterOptions&);
   std::string (*describe)(const FilterOptions&);
+  void (*prepare)(FilterOptions&) = nullptr;  // throws InputError for bad resources
 };
 
 template <FilterMethod M>
@@ -71,11 +86,39 @@ constexpr MethodEntry classical_entry(std::string_view name) {
   return {name, &make_classical<M>, &describe_classical<M>};
 }
 
-const std::array<MethodEntry, 4> kMethods = {
+// ---------------------------------------------------------------- Multi-STGAE
+
+// Loads the model once (per run, shared by both hands): --model, else the shipped one.
+void prepare_stgae(FilterOptions& o) {
+  const std::filesystem::path file = o.model_file.empty() ? default_model_path() : std::filesystem::path(o.model_file);
+  o.model = load_hsm(file);  // InputError naming the file for any defect
+  o.model_source = file.string();
+  const bool causal = o.model->config.padding == StgaePadding::Causal;
+  if (o.offline && causal) {
+    throw InputError({o.model_source, 0, "--offline"},
+                     "--offline runs a centred model in window mode; this model is causal (stream it without --offline)");
+  }
+  if (!o.offline && !causal) {
+    throw InputError({o.model_source, 0, "--model"},
+                     "this model is centred (non-causal): it cannot stream; use --offline for window mode");
+  }
+}
+
+std::unique_ptr<PoseFilter> make_stgae(const FilterOptions& o) { return make_stgae_filter(o.model, o.horizon_ms * 1e-3); }
+
+std::string describe_stgae(const FilterOptions& o) {
+  const StgaeConfig& c = o.model->config;
+  return fmt::format("model={} rate_hz={} window={} horizon_frames={} padding={} mode={}", o.model_source, c.rate_hz,
+                     c.window, c.predict ? c.horizon : 0,
+                     c.padding == StgaePadding::Causal ? "causal" : "centred", o.offline ? "offline" : "streaming");
+}
+
+const std::array<MethodEntry, 5> kMethods = {
     classical_entry<FilterMethod::Raw>("raw"),
     classical_entry<FilterMethod::OneEuro>("oneeuro"),
     classical_entry<FilterMethod::Desp>("desp"),
     classical_entry<FilterMethod::Kalman>("kalman"),
+    MethodEntry{"stgae", &make_stgae, &describe_stgae, &prepare_stgae},
 };
 
 std::vector<std::string> method_names() {
@@ -92,14 +135,108 @@ const MethodEntry& find_method(std::string_view name) {
                                                        fmt::join(method_names(), ", ")));
 }
 
-// Filters each hand of the track in place; rows keep their order and timestamps.
-void filter_track(Track& track, const MethodEntry& method, const FilterOptions& o) {
-  const double horizon_s = o.horizon_ms * 1e-3;
+// Offline (window-mode) denoising of one hand with a centred model. The tracked rows are
+// cut into segments wherever the hand is lost for more than kStgaeGapResetS (as the
+// streaming adapter resets there). Each segment is resampled onto the model grid
+// t0 + k / rate_hz by per-joint linear interpolation between the bracketing rows (a joint
+// missing in one of them takes the other's value; missing in both: NaN, hole-filled by
+// the model). Every grid frame k is denoised by the window of T frames centred on it
+// (start k - (T-1)/2, stride 1); at the segment's ends the window is clamped inside the
+// segment, so frame k comes off-centre from the first/last full window. A segment shorter
+// than T frames is padded by repeating its first and last frames. The denoised grid is
+// interpolated back to the segment's rows; joints never observed in a segment stay NaN.
+HandSeries offline_series(const StgaeModel& model, const HandSeries& in) {
+  const StgaeConfig& c = model.config;
+  const int n = c.joint_count();
+  if (n != kJointCount) throw InputError({"", 0, "--model"}, "offline filtering needs a 26-joint (xr26) model");
+  const int T = c.window;
+  const int centre = (T - 1) / 2;
+  const double period = 1.0 / c.rate_hz;
+  const auto width = static_cast<Eigen::Index>(3 * n);
+  const StgaeNet<float>& net = *model.net;
+
+  HandSeries out = in;
+  std::vector<size_t> tracked;
+  for (size_t i = 0; i < in.size(); ++i)
+    if (any_joint_tracked(in.pos[i])) tracked.push_back(i);
+
+  size_t a = 0;
+  while (a < tracked.size()) {
+    size_t b = a;  // segment = tracked[a..b]
+    while (b + 1 < tracked.size() && in.t[tracked[b + 1]] - in.t[tracked[b]] <= kStgaeGapResetS) ++b;
+    const double t0 = in.t[tracked[a]], t1 = in.t[tracked[b]];
+    const int frames = 1 + static_cast<int>(std::ceil((t1 - t0) / period - 1e-9));
+
+    // Resample onto the grid (the last tick may lie after t1: it takes the last row).
+    StgaeFrames<float> grid(frames, width);
+    std::vector<double> gt(static_cast<size_t>(frames));  // sample time of each grid frame
+    std::array<bool, kJointCount> seen{};
+    for (size_t r = a; r <= b; ++r)
+      for (int j = 0; j < n; ++j) seen[static_cast<size_t>(j)] = seen[static_cast<size_t>(j)] || joint_tracked(in.pos[tracked[r]], j);
+    size_t r = a;
+    for (int k = 0; k < frames; ++k) {
+      const double g = std::min(t0 + k * period, t1);
+      gt[static_cast<size_t>(k)] = g;
+      while (r < b && in.t[tracked[r + 1]] <= g) ++r;
+      const Pose& p0 = in.pos[tracked[r]];
+      const Pose& p1 = in.pos[tracked[std::min(r + 1, b)]];
+      const double ta = in.t[tracked[r]], tb = in.t[tracked[std::min(r + 1, b)]];
+      const double w = tb > ta ? std::clamp((g - ta) / (tb - ta), 0.0, 1.0) : 0.0;
+      for (int j = 0; j < n; ++j) {
+        const bool h0 = joint_tracked(p0, j), h1 = joint_tracked(p1, j);
+        for (int d = 0; d < 3; ++d) {
+          double v = std::numeric_limits<double>::quiet_NaN();
+          if (h0 && h1) v = p0(j, d) + w * (p1(j, d) - p0(j, d));
+          else if (h0 || h1) v = (h0 && (w < 0.5 || !h1)) ? p0(j, d) : p1(j, d);
+          grid(k, 3 * j + d) = static_cast<float>(v);
+        }
+      }
+    }
+
+    // Window mode, one window per start position; each grid frame taken from its window.
+    StgaeFrames<float> den(frames, width);
+    StgaeFrames<float> window(T, width);
+    if (frames < T) {
+      const int pad = (T - frames) / 2;
+      for (int i = 0; i < T; ++i) window.row(i) = grid.row(std::clamp(i - pad, 0, frames - 1));
+      const StgaeOutput<float> y = stgae_window_forward(net, window);
+      for (int k = 0; k < frames; ++k) den.row(k) = y.denoised.row(k + pad);
+    } else {
+      for (int ws = 0; ws + T <= frames; ++ws) {
+        window = grid.middleRows(ws, T);
+        const StgaeOutput<float> y = stgae_window_forward(net, window);
+        const int first = ws == 0 ? 0 : ws + centre;
+        const int last = ws + T == frames ? frames - 1 : ws + centre;
+        for (int k = first; k <= last; ++k) den.row(k) = y.denoised.row(k - ws);
+      }
+    }
+
+    // Back to the rows, linearly between the grid frames' sample times.
+    for (size_t q = a; q <= b; ++q) {
+      const size_t row = tracked[q];
+      const int k0 = std::clamp(static_cast<int>(std::floor((in.t[row] - t0) / period)), 0, frames - 1);
+      const int k1 = std::min(k0 + 1, frames - 1);
+      const double g0 = gt[static_cast<size_t>(k0)], g1 = gt[static_cast<size_t>(k1)];
+      const double f = g1 > g0 ? std::clamp((in.t[row] - g0) / (g1 - g0), 0.0, 1.0) : 0.0;
+      Pose& p = out.pos[row];
+      for (int j = 0; j < n; ++j)
+        for (int d = 0; d < 3; ++d) {
+          const auto v0 = static_cast<double>(den(k0, 3 * j + d)), v1 = static_cast<double>(den(k1, 3 * j + d));
+          p(j, d) = seen[static_cast<size_t>(j)] ? v0 + f * (v1 - v0) : std::numeric_limits<double>::quiet_NaN();
+        }
+    }
+    a = b + 1;
+  }
+  return out;
+}
+
+// Replaces each hand's rows of the track by `series_fn(series)`; rows keep order and times.
+template <class SeriesFn>
+void map_hands(Track& track, SeriesFn&& series_fn) {
   for (Hand hand : {Hand::Left, Hand::Right}) {
     const HandSeries series = hand_series(track, hand);
     if (series.empty()) continue;
-    std::unique_ptr<PoseFilter> filter = method.make(o);
-    const HandSeries filtered = filter_series(*filter, series, horizon_s);
+    const HandSeries filtered = series_fn(series);
     // Times are strictly increasing per hand, so the series is this hand's rows in file order.
     size_t k = 0;
     for (TrackRow& row : track.rows) {
@@ -113,19 +250,38 @@ void filter_track(Track& track, const MethodEntry& method, const FilterOptions& 
   }
 }
 
-void run_filter(const FilterOptions& o) {
+void run_filter(const FilterOptions& options) {
+  FilterOptions o = options;
   const MethodEntry& method = find_method(o.method);
   if (!(o.horizon_ms >= 0.0)) {
     throw InputError({"", 0, "--horizon-ms"}, fmt::format("horizon must be >= 0 ms, got {}", o.horizon_ms));
   }
-  // Validate the parameters before reading a possibly large file.
-  try {
-    (void)method.make(o);
-  } catch (const std::invalid_argument& e) {
-    throw InputError({"", 0, fmt::format("--method {}", method.name)}, e.what());
+  if (o.offline && method.name != "stgae") throw InputError({"", 0, "--offline"}, "--offline needs --method stgae");
+  if (o.offline && o.horizon_ms != 0.0) {
+    throw InputError({"", 0, "--horizon-ms"}, "--offline denoises a whole recording; it does not predict (use --horizon-ms 0)");
+  }
+  if (!o.model_file.empty() && method.name != "stgae") {
+    throw InputError({"", 0, "--model"}, fmt::format("--model is for --method stgae, not {}", method.name));
+  }
+  // Load resources and validate the parameters before reading a possibly large file.
+  if (method.prepare) method.prepare(o);
+  if (!o.offline) {
+    try {
+      (void)method.make(o);
+    } catch (const std::invalid_argument& e) {
+      throw InputError({o.model_source, 0, fmt::format("--method {}", method.name)}, e.what());
+    }
   }
   Track track = read_track_csv(o.in);
-  filter_track(track, method, o);
+  if (o.offline) {
+    map_hands(track, [&](const HandSeries& s) { return offline_series(*o.model, s); });
+  } else {
+    const double horizon_s = o.horizon_ms * 1e-3;
+    map_hands(track, [&](const HandSeries& s) {
+      std::unique_ptr<PoseFilter> filter = method.make(o);  // one per hand
+      return filter_series(*filter, s, horizon_s);
+    });
+  }
   // Appended (not replaced) so that a chain of filters stays visible; meta() reads the last.
   track.header_lines.push_back(
       fmt::format("filter: {} horizon_ms={} {}", method.name, o.horizon_ms, method.describe(o)));
@@ -135,7 +291,7 @@ void run_filter(const FilterOptions& o) {
 void setup_filter(CLI::App& app) {
   auto o = std::make_shared<FilterOptions>();
   CLI::App* sub = app.add_subcommand(
-      "filter", "Filter a track causally per hand (raw, One Euro, DESP, Kalman); see docs/FILTERS.md");
+      "filter", "Filter a track causally per hand (raw, One Euro, DESP, Kalman, Multi-STGAE); see docs/FILTERS.md");
   sub->add_option("--in", o->in, "Input track CSV")->required();
   sub->add_option("--out", o->out, "Output track CSV")->required();
   sub->add_option("--method", o->method, "Filter method")
@@ -156,6 +312,11 @@ void setup_filter(CLI::App& app) {
       ->capture_default_str();
   sub->add_option("--meas-sd-mm", o->meas_sd_mm, "Kalman measurement noise sd (mm)")->capture_default_str();
   sub->add_option("--accel-psd", o->accel_psd, "Kalman white-acceleration PSD (m^2/s^3)")->capture_default_str();
+  sub->add_option("--model", o->model_file,
+                  fmt::format("Multi-STGAE model (.hsm); default: ${}, else the shipped {}", kModelEnvVar,
+                              kDefaultModelFile));
+  sub->add_flag("--offline", o->offline,
+                "Multi-STGAE: run a centred model in window mode over the whole recording (not causal)");
   sub->callback([o] { run_filter(*o); });
 }
 

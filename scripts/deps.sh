@@ -11,8 +11,9 @@ case "$what" in
   test|all) pkgs+=(doctest-dev libbenchmark-dev) ;;
   *) echo "usage: $0 [build|test|all]" >&2; exit 2 ;;
 esac
-# Extra package lists dropped in by later parts (one package per line).
+# Extra package lists (one package per line); test-*.txt only for the tests.
 for f in "$(dirname "$0")"/deps.d/*.txt; do
+  case "$(basename "$f")" in test-*) [ "$what" = build ] && continue ;; esac
   [ -f "$f" ] && while read -r p; do [ -n "$p" ] && [ "${p#\#}" = "$p" ] && pkgs+=("$p"); done < "$f"
 done
 missing=()

@@ -129,7 +129,7 @@ void write_recording(const TrackerData& t) noexcept {
       Track track;
       track.set_meta("source", fmt::format("{} {} (world-fixed LOCAL space of the layer)", kLayerName, kind));
       track.set_meta("mode", mode_name(t.inst->config.mode));
-      track.set_meta("filter", filter_method_name(t.inst->config.filter.method));
+      track.set_meta("filter", engine_name(t.inst->config));
       add_hand_series(track, hand, *series);
       write_track_csv(track, dir / (stem + "_" + kind + ".csv"));
     }
@@ -175,7 +175,7 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateHandTrackerEXT(XrSession session, const XrH
                            static_cast<int>(sres)));
     } else {
       try {
-        for (auto& f : t->filters) f = std::make_unique<TrackerFilter>(inst->config.filter);
+        for (auto& f : t->filters) f = std::make_unique<TrackerFilter>(inst->config);
       } catch (const std::invalid_argument& e) {
         t->passthrough = true;
         log_once(g_logged_engine, LogLevel::Error, fmt::format("filter configuration rejected: {}; passing through", e.what()));
@@ -501,15 +501,16 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateApiLayerInstance(const XrInstanceCreateInfo
     d->config = std::move(loaded.config);
     g_log_level = static_cast<int>(d->config.log_level);
     for (const auto& w : loaded.warnings) log(LogLevel::Warn, fmt::format("configuration: {} (ignored)", w));
+    for (const auto& m : loaded.engine_messages) log(m.level, m.text);
     if (!d->DestroyInstance || !d->LocateSpace || !d->CreateReferenceSpace || !d->DestroySpace) {
       log(LogLevel::Warn, "runtime lacks core space functions: passing everything through");
       d->config.mode = Mode::Off;
     }
     log(LogLevel::Info, fmt::format("mode {}, engine {}, horizon {} ms, hand tracking {}", mode_name(d->config.mode),
-                                    filter_method_name(d->config.filter.method),
+                                    engine_name(d->config),
                                     static_cast<double>(d->config.horizon_ns) * 1e-6,
                                     d->hand_tracking ? "enabled by the app" : "not enabled by the app"));
-    if (!d->config.model_path.empty())
+    if (!d->config.model_path.empty() && d->config.engine != Engine::Stgae)
       log(LogLevel::Info, fmt::format("model '{}' is not used by the classical engines", d->config.model_path));
     std::unique_lock lock(reg().mu);
     reg().instances[*instance] = std::move(d);

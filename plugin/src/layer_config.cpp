@@ -1,9 +1,15 @@
 #include "layer_config.hpp"
 
+#include "handsteady/model_path.hpp"
+#include "handsteady/stgae_engine.hpp"
+
 #include <nlohmann/json.hpp>
+
+#include <dlfcn.h>
 
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <optional>
 
@@ -51,11 +57,17 @@ struct Applier {
     else warnings.push_back(where + ": unknown mode '" + v + "' (off, denoise, predict)");
   }
   void method(const std::string& v, const std::string& where) {
+    if (v == "stgae") {
+      c.stgae_requested = true;
+      c.method_given = true;
+      return;
+    }
     try {
       c.filter.method = parse_filter_method(v);
       c.method_given = true;
+      c.stgae_requested = false;
     } catch (const std::exception& e) {
-      warnings.push_back(where + ": " + e.what());
+      warnings.push_back(where + ": " + e.what() + "; or stgae");
     }
   }
   void horizon_ms(double v, const std::string& where) {
@@ -133,7 +145,61 @@ void apply_file(const std::string& path, Applier& a) {
     read_number(j["desp"], "alpha", f.desp.alpha, 1e-6, where + ": desp", a.warnings);
 }
 
+// Folder of this shared library (dladdr on one of its functions), empty when unknown.
+std::filesystem::path layer_library_dir() {
+  Dl_info info{};
+  if (dladdr(reinterpret_cast<const void*>(&layer_library_dir), &info) == 0 || !info.dli_fname) return {};
+  std::error_code ec;
+  const auto p = std::filesystem::weakly_canonical(info.dli_fname, ec);
+  return ec ? std::filesystem::path(info.dli_fname).parent_path() : p.parent_path();
+}
+
+// The installed models folder relative to the installed layer (set by plugin/CMakeLists.txt).
+#ifndef HS_LAYER_MODELS_RELDIR
+#define HS_LAYER_MODELS_RELDIR "../../share/handsteady/models"
+#endif
+
+FilterMethod classical_default(Mode m) { return m == Mode::Predict ? FilterMethod::Kalman : FilterMethod::OneEuro; }
+
 }  // namespace
+
+void resolve_engine(LayerConfig& c, std::vector<LogMessage>& messages) {
+  c.engine = Engine::Classical;
+  c.model.reset();
+  if (!c.method_given) c.filter.method = classical_default(c.mode);
+  if (c.method_given && !c.stgae_requested) return;  // a classical method was asked for
+  if (c.stgae_requested) c.filter.method = classical_default(c.mode);  // the fallback, if needed
+  const std::string fallback(filter_method_name(c.filter.method));
+
+  std::filesystem::path file = c.model_path;
+  if (file.empty()) {
+    const auto dir = layer_library_dir();
+    const ModelLookup found = lookup_default_model({dir.empty() ? dir : dir / HS_LAYER_MODELS_RELDIR});
+    if (found.found.empty()) {
+      messages.push_back({c.stgae_requested ? LogLevel::Error : LogLevel::Info,
+                          "engine " + fallback + ": no Multi-STGAE model found (tried " + found.describe_tried() + ")"});
+      return;
+    }
+    file = found.found;
+  }
+  try {
+    auto model = load_hsm(file);
+    // Checks the model can stream (causal, 26 joints) before any tracker exists.
+    (void)make_stgae_filter(model, 0.0);
+    c.model = std::move(model);
+    c.model_path = file.string();
+    c.engine = Engine::Stgae;
+    messages.push_back({LogLevel::Info, "engine stgae: model " + file.string() +
+                                            (c.stgae_requested ? " (method stgae)" : " (default: a model was found)")});
+  } catch (const std::exception& e) {
+    messages.push_back({LogLevel::Error, "engine " + fallback + ": the Multi-STGAE model " + file.string() +
+                                             " cannot be used: " + e.what()});
+  }
+}
+
+std::string_view engine_name(const LayerConfig& c) {
+  return c.engine == Engine::Stgae ? std::string_view("stgae") : filter_method_name(c.filter.method);
+}
 
 std::string_view mode_name(Mode m) {
   switch (m) {
@@ -158,9 +224,14 @@ LoadedConfig load_layer_config() {
   }
   if (auto v = env("HANDSTEADY_LOG")) a.log_level(*v, "HANDSTEADY_LOG");
   if (auto v = env("HANDSTEADY_RECORD")) c.record_dir = *v;
-  // Each mode's default engine: smoothing without lag-compensation for denoise, a
-  // constant-velocity Kalman (which extrapolates) for predict.
-  if (!c.method_given) c.filter.method = c.mode == Mode::Predict ? FilterMethod::Kalman : FilterMethod::OneEuro;
+  // Each mode's classical default: smoothing without lag-compensation for denoise, a
+  // constant-velocity Kalman (which extrapolates) for predict; Multi-STGAE (which does
+  // both) when a model is found and no method is given. Never in mode off (nothing runs).
+  if (c.mode == Mode::Off) {
+    if (!c.method_given || c.stgae_requested) c.filter.method = classical_default(c.mode);
+    return out;
+  }
+  resolve_engine(c, out.engine_messages);
   return out;
 }
 

@@ -2,8 +2,10 @@
 // Layer configuration: defaults, then an optional JSON file (HANDSTEADY_CONFIG), then
 // environment variables (each overrides the file). Documented in docs/OPENXR_LAYER.md.
 #include "handsteady/filters.hpp"
+#include "handsteady/stgae_model.hpp"
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -22,24 +24,47 @@ inline FilterConfig layer_default_filter() {
   return f;
 }
 
+enum class Engine { Classical, Stgae };
+
 struct LayerConfig {
   Mode mode = Mode::Denoise;
+  // Classical: filter.method. Stgae: the Multi-STGAE streaming engine over `model`.
+  Engine engine = Engine::Classical;
   FilterConfig filter = layer_default_filter();  // method and parameters of the engine behind PoseFilter
-  bool method_given = false;    // false: the mode's default method
-  std::string model_path;       // model for a learned engine (not used by classical filters)
+  bool method_given = false;    // false: stgae when a model is found, else the mode's classical default
+  bool stgae_requested = false; // method "stgae" given (config or env)
+  std::string model_path;       // model file for stgae (empty: hs::lookup_default_model)
+  // Loaded once per instance when engine == Stgae; shared (read-only) by every tracker.
+  std::shared_ptr<const StgaeModel> model;
   int64_t horizon_ns = 20'000'000;  // predict mode: sample the runtime this long before the asked time
   LogLevel log_level = LogLevel::Warn;
   std::string record_dir;       // non-empty: write raw and filtered track CSVs per tracker
 };
 
+struct LogMessage {
+  LogLevel level;
+  std::string text;
+};
+
 struct LoadedConfig {
   LayerConfig config;
   std::vector<std::string> warnings;  // bad values that were ignored (defaults kept)
+  // The engine chosen and why (model found / loaded / failed and the fallback); log each once.
+  std::vector<LogMessage> engine_messages;
 };
 
-// Never throws for bad user input: a bad value is reported in warnings and ignored.
+// Never throws for bad user input: a bad value is reported in warnings and ignored; a
+// model that cannot be used is reported in engine_messages and the classical default of
+// the mode (One Euro for denoise, Kalman for predict) is used instead.
 LoadedConfig load_layer_config();
 
+// Picks the engine: method "stgae", or no method given and a model found -> load the model
+// (config.model_path, else hs::lookup_default_model next to the installed layer, else the
+// source tree); on any failure -> the mode's classical default. Called by load_layer_config.
+void resolve_engine(LayerConfig& c, std::vector<LogMessage>& messages);
+
 std::string_view mode_name(Mode m);
+// "stgae" or the classical method's name.
+std::string_view engine_name(const LayerConfig& c);
 
 }  // namespace hs::layer

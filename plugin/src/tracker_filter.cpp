@@ -1,17 +1,47 @@
 #include "tracker_filter.hpp"
 
+#include "handsteady/stgae_engine.hpp"
+
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numbers>
 
 namespace hs::layer {
 
-TrackerFilter::TrackerFilter(const FilterConfig& config)
-    : filter_(make_filter(config)),
-      reset_gap_ns_(config.max_gap_s * 1e9),
+TrackerFilter::TrackerFilter(std::unique_ptr<PoseFilter> filter, double reset_gap_s, double max_ahead_s)
+    : filter_(std::move(filter)),
+      reset_gap_ns_(reset_gap_s * 1e9),
+      max_ahead_ns_(max_ahead_s * 1e9),
       hist_pose_(std::make_unique<std::array<Pose, kHistory>>()) {
   velocity_.setConstant(std::numeric_limits<double>::quiet_NaN());
 }
+
+TrackerFilter::TrackerFilter(const FilterConfig& config)
+    : TrackerFilter(make_filter(config), config.max_gap_s, std::numeric_limits<double>::infinity()) {}
+
+namespace {
+std::unique_ptr<PoseFilter> make_layer_engine(const LayerConfig& c) {
+  if (c.engine == Engine::Stgae && c.model) {
+    // The horizon only matters for validation here: estimates are asked at explicit times.
+    const double horizon_s = c.mode == Mode::Predict ? static_cast<double>(c.horizon_ns) * 1e-9 : 0.0;
+    return make_stgae_filter(c.model, horizon_s);
+  }
+  return make_filter(c.filter);
+}
+}  // namespace
+
+namespace {
+// How far past its last sample the engine may answer: its own gap (after which its state
+// has expired) plus the horizon the layer samples early by in predict mode.
+double max_ahead_s(const LayerConfig& c) {
+  const double gap = c.engine == Engine::Stgae ? std::min(c.filter.max_gap_s, kStgaeGapResetS) : c.filter.max_gap_s;
+  return gap + (c.mode == Mode::Predict ? static_cast<double>(c.horizon_ns) * 1e-9 : 0.0);
+}
+}  // namespace
+
+TrackerFilter::TrackerFilter(const LayerConfig& config)
+    : TrackerFilter(make_layer_engine(config), config.filter.max_gap_s, max_ahead_s(config)) {}
 
 bool TrackerFilter::from_history(XrTime t, Pose& out) const noexcept {
   // Newest to oldest: find consecutive entries a (older) <= t <= b (newer).
@@ -69,8 +99,12 @@ bool TrackerFilter::update(XrTime sample_time, const Pose* observed, XrTime quer
   if (hist_count_ == 0) return false;
 
   bool ok = true;
-  if (query_time >= last_) filter_->estimate(seconds(query_time), out);
-  else ok = from_history(query_time, out);
+  if (query_time >= last_) {
+    if (static_cast<double>(query_time - last_) > max_ahead_ns_) return false;
+    filter_->estimate(seconds(query_time), out);
+  } else {
+    ok = from_history(query_time, out);
+  }
 
   velocity = velocity_;
   return ok;

@@ -204,6 +204,7 @@ TEST_CASE("predict: error at the display time below the runtime's stale answer")
   set_env("HANDSTEADY_SHIM_FUTURE", "hold");  // the runtime answers its latest sample
   set_env("HANDSTEADY_SHIM_LATENCY_MS", "40");
   set_env("HANDSTEADY_MODE", "predict");
+  set_env("HANDSTEADY_METHOD", "kalman");  // the classical predictor (One Euro does not predict)
   set_env("HANDSTEADY_HORIZON_MS", "40");
   enable_layers({kLayer});
   App app;
@@ -252,6 +253,7 @@ TEST_CASE("bad configuration is reported and ignored: the layer still denoises")
   std::ofstream(cfg) << R"({"mode": "sideways", "horizon_ms": "soon", "oneeuro": {"beta": -3})";  // invalid JSON too
   set_env("HANDSTEADY_CONFIG", cfg.string());
   set_env("HANDSTEADY_METHOD", "no-such-filter");
+  set_env("HANDSTEADY_MODEL", (f.dir / "no-such-model.hsm").string());  // the default engine cannot load either
   set_env("HANDSTEADY_LOG", "off");
   enable_layers({kLayer});
   App app;
@@ -263,6 +265,7 @@ TEST_CASE("bad configuration is reported and ignored: the layer still denoises")
 TEST_CASE("configuration file selects the engine and its parameters") {
   const TrackFiles f = make_tracks("config", 3.0);
   reset_env(f);
+  unset_env("HANDSTEADY_METHOD");  // the environment would override the file
   enable_layers({kLayer});
   // "raw" holds the last sample: exactly the runtime's answer at the asked time.
   const auto cfg = f.dir / "raw.json";

@@ -1,0 +1,349 @@
+#include "stgae_torch.hpp"
+
+#include "handsteady/skeleton.hpp"
+
+#include <torch/torch.h>
+
+#include <cmath>
+#include <set>
+#include <stdexcept>
+
+namespace hs::train {
+
+namespace {
+
+// PyTorch's default initialisation of conv/linear layers: U(-1/sqrt(fan_in), 1/sqrt(fan_in)).
+torch::Tensor default_uniform(std::vector<int64_t> shape, int64_t fan_in) {
+  const double a = 1.0 / std::sqrt(static_cast<double>(std::max<int64_t>(fan_in, 1)));
+  return torch::empty(shape).uniform_(-a, a);
+}
+
+torch::nn::Module& holder(torch::nn::Module& parent, const std::string& name) {
+  return *parent.register_module(name, std::make_shared<torch::nn::Module>());
+}
+
+}  // namespace
+
+torch::Tensor time_mean(const torch::Tensor& x, TimeMean mean, int T) {
+  const int64_t L = x.size(1);
+  if (mean == TimeMean::Whole) return x.mean(1, /*keepdim=*/true);
+  torch::Tensor cs = x.cumsum(1);
+  if (L > T) {
+    // Sum over the last T frames = cumsum(t) - cumsum(t - T).
+    cs = cs - torch::cat({torch::zeros_like(cs.narrow(1, 0, T)), cs.narrow(1, 0, L - T)}, 1);
+  }
+  std::vector<int64_t> shape(static_cast<size_t>(x.dim()), 1);
+  shape[1] = L;
+  const torch::Tensor count =
+      torch::arange(1, L + 1, torch::TensorOptions().dtype(x.dtype())).clamp_max(T).view(shape);
+  return cs / count;
+}
+
+torch::Tensor positional_encoding(int frames, int channels, torch::Dtype dtype) {
+  auto pe = torch::zeros({frames, channels}, torch::kFloat64);
+  auto acc = pe.accessor<double, 2>();
+  for (int i = 0; i < frames; ++i)
+    for (int c = 0; c < channels; ++c) {
+      const int m2 = c - (c % 2);  // 2m
+      const double angle = i / std::pow(10000.0, static_cast<double>(m2) / channels);
+      acc[i][c] = (c % 2 == 0) ? std::sin(angle) : std::cos(angle);
+    }
+  return pe.to(dtype);
+}
+
+// ---- layers ----------------------------------------------------------------------------
+
+Conv1x1Impl::Conv1x1Impl(int in, int out, bool has_bias) {
+  weight = register_parameter("weight", default_uniform({out, in}, in));
+  if (has_bias) bias = register_parameter("bias", default_uniform({out}, in));
+}
+
+torch::Tensor Conv1x1Impl::forward(const torch::Tensor& x) { return torch::linear(x, weight, bias); }
+
+ChannelNormImpl::ChannelNormImpl(int channels) {
+  weight = register_parameter("weight", torch::ones({channels}));
+  bias = register_parameter("bias", torch::zeros({channels}));
+  running_mean = register_buffer("running_mean", torch::zeros({channels}));
+  running_var = register_buffer("running_var", torch::ones({channels}));
+}
+
+torch::Tensor ChannelNormImpl::forward(const torch::Tensor& x) {
+  const int64_t C = x.size(-1);
+  const auto flat = x.reshape({-1, C});
+  const auto y = torch::batch_norm(flat, weight, bias, running_mean, running_var, is_training(),
+                                   /*momentum=*/0.1, /*eps=*/1e-5, /*cudnn_enabled=*/false);
+  return y.view(x.sizes());
+}
+
+TemporalConvImpl::TemporalConvImpl(int in, int out, int kernel) {
+  weight = register_parameter("weight", default_uniform({out, in, kernel}, static_cast<int64_t>(in) * kernel));
+  bias = register_parameter("bias", default_uniform({out}, static_cast<int64_t>(in) * kernel));
+}
+
+// ---- block -----------------------------------------------------------------------------
+
+BlockImpl::BlockImpl(const StgaeConfig& config, const BlockOptions& options)
+    : opt(options), attention(config.attention), c_variant(config.c_variant) {
+  const auto& partition = hand_partition(skeleton_by_name(config.skeleton));
+  N = static_cast<int>(partition.A[0].rows());
+  d = std::max(1, opt.c_in / 2);
+  A = torch::empty({K, N, N}, torch::kFloat64);
+  for (int k = 0; k < K; ++k)
+    for (int v = 0; v < N; ++v)
+      for (int w = 0; w < N; ++w) A[k][v][w] = partition.A[static_cast<size_t>(k)](v, w);
+
+  auto& g = holder(*this, "gcn");
+  gcn_conv = g.register_module("conv", std::make_shared<Conv1x1Impl>(opt.c_in, K * opt.c_out, true));
+  gcn_bn = g.register_module("bn", std::make_shared<ChannelNormImpl>(K * opt.c_out));
+  // B starts at zero (ISMAR paper), so training starts from the physical graph.
+  if (attention != StgaeAttention::A) B = register_parameter("B", torch::zeros({K, N, N}));
+  if (attention == StgaeAttention::ABC) {
+    auto& a = holder(*this, "att");
+    if (c_variant == StgaeCVariant::Dot) {
+      att_q = a.register_module("q", std::make_shared<Conv1x1Impl>(opt.c_in, K * d, false));
+      att_k = a.register_module("k", std::make_shared<Conv1x1Impl>(opt.c_in, K * d, false));
+    } else {
+      att_emb = a.register_module("emb", std::make_shared<Conv1x1Impl>(opt.c_in, K * d, false));
+      att_a = a.register_parameter("a", default_uniform({K, 2 * d}, 2 * d));
+    }
+  }
+  auto& t = holder(*this, "tcn");
+  tcn_conv = t.register_module("conv", std::make_shared<TemporalConvImpl>(opt.c_out, opt.c_out, opt.kernel));
+  tcn_bn = t.register_module("bn", std::make_shared<ChannelNormImpl>(opt.c_out));
+  auto& r = holder(*this, "res");
+  res_conv = r.register_module("conv", std::make_shared<Conv1x1Impl>(opt.c_in, opt.c_out, true));
+  res_bn = r.register_module("bn", std::make_shared<ChannelNormImpl>(opt.c_out));
+  if (!opt.relu_out) {
+    // A decoder's linear output starts small: the initial model is close to identity
+    // (denoised = input, prediction = hold the last frame).
+    torch::NoGradGuard no_grad;
+    tcn_bn->weight.fill_(0.1);
+    res_bn->weight.fill_(0.1);
+  }
+}
+
+torch::Tensor BlockImpl::forward(const torch::Tensor& f) {
+  const int64_t Bn = f.size(0), L = f.size(1), C = opt.c_out;
+  // a. 1x1 conv to K*Cout channels (index k*Cout + c), BN, ReLU.
+  const auto h = torch::relu(gcn_bn->forward(gcn_conv->forward(f)));
+  // [B, L, N, K, C] -> [B, L, C, K*N] so that the aggregation is one matmul with the
+  // stacked [K*N, N] graph (row k*N + v).
+  const auto hp = h.view({Bn, L, N, K, C}).permute({0, 1, 4, 3, 2}).reshape({Bn, L, C, K * N});
+  // b. M_k = A_k (+ B_k) (+ C_k(t)).
+  torch::Tensor M = A.to(f.dtype());
+  if (attention != StgaeAttention::A) M = M + B;
+  torch::Tensor g;
+  if (attention == StgaeAttention::ABC) {
+    torch::Tensor S;
+    if (c_variant == StgaeCVariant::Dot) {
+      const auto inv_sqrt_d = 1.0 / std::sqrt(static_cast<double>(d));
+      if (opt.mean == TimeMean::Whole) {
+        // Mean over all frames of q_s[v] . k_s[w] = one product over the (frame, dim) axis.
+        const auto q = att_q->forward(f).view({Bn, L, N, K, d}).permute({0, 3, 2, 1, 4}).reshape({Bn, K, N, L * d});
+        const auto k = att_k->forward(f).view({Bn, L, N, K, d}).permute({0, 3, 2, 1, 4}).reshape({Bn, K, N, L * d});
+        S = (torch::matmul(q, k.transpose(-1, -2)) * (inv_sqrt_d / static_cast<double>(L))).unsqueeze(1);
+      } else {
+        const auto q = att_q->forward(f).view({Bn, L, N, K, d}).permute({0, 1, 3, 2, 4});
+        const auto k = att_k->forward(f).view({Bn, L, N, K, d}).permute({0, 1, 3, 2, 4});
+        // Per-frame products q_s[v] . k_s[w], averaged over W(t), / sqrt(d).
+        S = time_mean(torch::matmul(q, k.transpose(-1, -2)), opt.mean, opt.T) * inv_sqrt_d;
+      }
+    } else {
+      const auto fm = time_mean(f, opt.mean, opt.T);  // [B, L|1, N, Cin]
+      const int64_t Lm = fm.size(1);
+      const auto e = att_emb->forward(fm).view({Bn, Lm, N, K, d}).permute({0, 1, 3, 2, 4});  // [B,Lm,K,N,d]
+      const auto a1 = att_a.narrow(1, 0, d).view({1, 1, K, 1, d});
+      const auto a2 = att_a.narrow(1, d, d).view({1, 1, K, 1, d});
+      const auto s1 = (e * a1).sum(-1), s2 = (e * a2).sum(-1);  // [B, Lm, K, N]
+      S = torch::leaky_relu(s1.unsqueeze(-1) + s2.unsqueeze(-2), 0.2);
+    }
+    const auto Cm = torch::softmax(S, -1);  // [B, L|1, K, N, N], rows sum to 1
+    const auto Mfull = (Cm + M).reshape({Bn, Cm.size(1), K * N, N});
+    if (Cm.size(1) == 1) {
+      // One matrix per window: a single product per window over all (frame, channel) rows.
+      g = torch::matmul(hp.reshape({Bn, L * C, K * N}), Mfull.squeeze(1)).view({Bn, L, C, N});
+    } else {
+      g = torch::matmul(hp, Mfull);  // one matrix per frame
+    }
+  } else {
+    g = torch::matmul(hp, M.reshape({K * N, N}));
+  }
+  // d. temporal conv over frames as one GEMM: unfold gives the kt (zero-padded) frames under
+  // the kernel as [B, L', N, C, kt] (index c*kt + j after reshape = W's [Cout, Cin*kt] layout).
+  auto gl = g.transpose(2, 3);  // [B, L, N, C]
+  const int64_t kt = opt.kernel;
+  if (opt.pad == BlockOptions::Pad::Causal && kt > 1) {
+    gl = torch::constant_pad_nd(gl, {0, 0, 0, 0, kt - 1, 0});
+  } else if (opt.pad == BlockOptions::Pad::Centred && kt > 1) {
+    gl = torch::constant_pad_nd(gl, {0, 0, 0, 0, (kt - 1) / 2, (kt - 1) / 2});
+  }
+  const int64_t Lo = gl.size(1) - kt + 1;
+  const auto stacked = gl.unfold(1, kt, 1).reshape({Bn, Lo, N, C * kt});
+  const auto u = torch::linear(stacked, tcn_conv->weight.reshape({C, C * kt}), tcn_conv->bias);  // [B, L', N, C]
+  auto z = tcn_bn->forward(u);
+  if (opt.relu_out) z = torch::relu(z);
+  auto r = res_bn->forward(res_conv->forward(f));
+  // Valid padding: output frame t covers input frames t..t+kt-1; its residual is the newest one.
+  if (Lo != L) r = r.narrow(1, L - Lo, Lo);
+  return z + r;
+}
+
+// ---- gate ------------------------------------------------------------------------------
+
+GateImpl::GateImpl(int channels, TimeMean mean_, int T_) : mean(mean_), T(T_) {
+  const int hc = std::max(1, channels / 2);
+  auto& s = holder(*this, "shared");
+  shared_conv = s.register_module("conv", std::make_shared<Conv1x1Impl>(channels, hc, true));
+  shared_bn = s.register_module("bn", std::make_shared<ChannelNormImpl>(hc));
+  time_conv = holder(*this, "time").register_module("conv", std::make_shared<Conv1x1Impl>(hc, channels, true));
+  joint_conv = holder(*this, "joint").register_module("conv", std::make_shared<Conv1x1Impl>(hc, channels, true));
+  bn = register_module("bn", std::make_shared<ChannelNormImpl>(channels));
+}
+
+torch::Tensor GateImpl::forward(const torch::Tensor& x) {
+  const auto pt = time_mean(x, mean, T);  // [B, L|1, N, C]: per joint, pooled over time
+  const auto pj = x.mean(2);              // [B, L, C]: per frame, pooled over joints
+  const auto zt = torch::relu(shared_bn->forward(shared_conv->forward(pt)));
+  const auto zj = torch::relu(shared_bn->forward(shared_conv->forward(pj)));
+  const auto gt = torch::sigmoid(time_conv->forward(zt));
+  const auto gj = torch::sigmoid(joint_conv->forward(zj)).unsqueeze(2);
+  return torch::relu(bn->forward(x + x * gt * gj));
+}
+
+// ---- network ---------------------------------------------------------------------------
+
+StgaeNetImpl::StgaeNetImpl(const StgaeConfig& cfg) : config(cfg) {
+  validate_stgae_config(config);
+  const bool causal = config.padding == StgaePadding::Causal;
+  const TimeMean mean = causal ? TimeMean::Causal : TimeMean::Whole;
+  const auto pad = causal ? BlockOptions::Pad::Causal : BlockOptions::Pad::Centred;
+  const int T = config.window, DT = config.horizon, kt = config.temporal_kernel;
+
+  auto add_blocks = [&](torch::nn::Module& parent, const std::vector<int>& ch, int kernel, BlockOptions::Pad p,
+                        TimeMean m, bool linear_last, std::vector<std::shared_ptr<BlockImpl>>& out) {
+    for (size_t i = 0; i + 1 < ch.size(); ++i) {
+      BlockOptions o{ch[i], ch[i + 1], kernel, p, m, T, !(linear_last && i + 2 == ch.size())};
+      out.push_back(parent.register_module(std::to_string(i), std::make_shared<BlockImpl>(config, o)));
+    }
+  };
+  enc = register_module("enc", std::make_shared<torch::nn::Module>());
+  add_blocks(*enc, config.encoder_channels, kt, pad, mean, false, enc_blocks);
+  den = register_module("den", std::make_shared<torch::nn::Module>());
+  add_blocks(*den, config.denoise_decoder_channels, kt, pad, mean, true, den_blocks);
+  const int C = config.latent_channels();
+  if (config.gates) enc_gate = register_module("enc_gate", std::make_shared<GateImpl>(C, mean, T));
+  if (config.predict) {
+    pre = register_module("pre", std::make_shared<torch::nn::Module>());
+    if (causal) {
+      pre_lift = pre->register_module("lift", std::make_shared<Conv1x1Impl>(C, DT * C, true));
+      // The DT future frames are computed together: kernel 1, means over all DT frames.
+      add_blocks(*pre, config.predict_decoder_channels, 1, BlockOptions::Pad::Causal, TimeMean::Whole, true,
+                 pre_blocks);
+    } else {
+      BlockOptions o{C, C, T - DT + 1, BlockOptions::Pad::Valid, TimeMean::Whole, T, true};
+      pre_head = pre->register_module("head", std::make_shared<BlockImpl>(config, o));
+      add_blocks(*pre, config.predict_decoder_channels, kt, BlockOptions::Pad::Centred, TimeMean::Whole, true,
+                 pre_blocks);
+    }
+    if (config.gates) pre_gate = register_module("pre_gate", std::make_shared<GateImpl>(C, mean, T));
+  }
+}
+
+TorchOutput StgaeNetImpl::forward(const torch::Tensor& features) {
+  if (features.dim() != 4 || features.size(3) != 6)
+    throw std::invalid_argument("stgae: features must be [B, L, N, 6]");
+  torch::Tensor H = features;
+  for (auto& b : enc_blocks) H = b->forward(H);
+  if (enc_gate) H = enc_gate->forward(H);
+  TorchOutput out;
+  torch::Tensor D = H;
+  for (auto& b : den_blocks) D = b->forward(D);
+  out.denoised_offset = D;
+  if (config.predict) {
+    const int64_t Bn = H.size(0), L = H.size(1), N = H.size(2);
+    const int DT = config.horizon, C = config.latent_channels();
+    torch::Tensor P = pre_gate ? pre_gate->forward(H) : H;
+    torch::Tensor Z;
+    if (pre_lift) {
+      Z = pre_lift->forward(P.select(1, L - 1)).view({Bn, N, DT, C}).permute({0, 2, 1, 3});
+    } else {
+      if (L != config.window) throw std::invalid_argument("stgae: the centred prediction head needs L = T frames");
+      Z = pre_head->forward(P);
+    }
+    Z = Z + positional_encoding(DT, C, H.scalar_type()).view({1, DT, 1, C});
+    for (auto& b : pre_blocks) Z = b->forward(Z);
+    out.predicted_offset = Z;
+  }
+  return out;
+}
+
+torch::Tensor denoised_positions(const StgaeConfig& config, const torch::Tensor& x, const TorchOutput& out) {
+  return x + config.shape_scale_m * out.denoised_offset;
+}
+
+torch::Tensor predicted_positions(const StgaeConfig& config, const torch::Tensor& denoised, const TorchOutput& out) {
+  const int64_t L = denoised.size(1);
+  return denoised.narrow(1, L - 1, 1) + config.shape_scale_m * out.predicted_offset;
+}
+
+// ---- weights ---------------------------------------------------------------------------
+
+namespace {
+
+std::map<std::string, torch::Tensor> named_tensors(StgaeNetImpl& net) {
+  std::map<std::string, torch::Tensor> all;
+  for (const auto& p : net.named_parameters(true)) all.emplace(p.key(), p.value());
+  for (const auto& b : net.named_buffers(true)) all.emplace(b.key(), b.value());
+  return all;
+}
+
+std::string shape_text(c10::IntArrayRef s) {
+  std::string t = "[";
+  for (size_t i = 0; i < s.size(); ++i) t += (i ? ", " : "") + std::to_string(s[i]);
+  return t + "]";
+}
+
+torch::Tensor spec_tensor(const std::map<std::string, torch::Tensor>& all, const TensorSpec& spec) {
+  const auto it = all.find(spec.name);
+  if (it == all.end()) throw std::logic_error("stgae torch model lacks tensor " + spec.name);
+  std::vector<int64_t> want(spec.shape.begin(), spec.shape.end());
+  if (it->second.sizes() != c10::IntArrayRef(want))
+    throw std::logic_error("stgae torch tensor " + spec.name + " has shape " + shape_text(it->second.sizes()) +
+                           ", the spec says " + shape_text(want));
+  return it->second;
+}
+
+}  // namespace
+
+StgaeWeights export_weights(StgaeNetImpl& net) {
+  const auto all = named_tensors(net);
+  const auto specs = stgae_tensor_specs(net.config);
+  std::set<std::string> used;
+  StgaeWeights w;
+  for (const auto& spec : specs) {
+    const auto t = spec_tensor(all, spec).detach().to(torch::kCPU, torch::kFloat32).contiguous();
+    Tensor out;
+    out.shape = spec.shape;
+    out.data.assign(t.data_ptr<float>(), t.data_ptr<float>() + t.numel());
+    w.tensors.emplace(spec.name, std::move(out));
+    used.insert(spec.name);
+  }
+  for (const auto& [name, t] : all)
+    if (!used.count(name)) throw std::logic_error("stgae torch tensor " + name + " is not in the model file spec");
+  return w;
+}
+
+void import_weights(StgaeNetImpl& net, const StgaeWeights& weights) {
+  check_stgae_weights(net.config, weights);
+  const auto all = named_tensors(net);
+  torch::NoGradGuard no_grad;
+  for (const auto& spec : stgae_tensor_specs(net.config)) {
+    auto dst = spec_tensor(all, spec);
+    const auto& src = weights.at(spec.name);
+    auto cpu = torch::from_blob(const_cast<float*>(src.data.data()),  // NOLINT: read only
+                                std::vector<int64_t>(spec.shape.begin(), spec.shape.end()), torch::kFloat32);
+    dst.copy_(cpu.to(dst.scalar_type()));
+  }
+}
+
+}  // namespace hs::train

@@ -1,0 +1,117 @@
+#pragma once
+// libtorch implementation of the Multi-STGAE forward pass defined (exactly) in
+// core/include/handsteady/stgae_model.hpp. Module and parameter names are chosen so that
+// named_parameters()/named_buffers() ARE the .hsm tensor names ("enc.0.gcn.conv.weight",
+// "pre.lift.bias", ...): export/import is a name lookup checked against
+// hs::stgae_tensor_specs.
+//
+// Layout: activations are channel-last tensors [B, L frames, N joints, C channels], so every
+// 1x1 convolution is a matmul over the last axis. Works in float32 and float64
+// (module->to(torch::kFloat64)).
+#include "handsteady/stgae_model.hpp"
+
+#include <torch/nn/module.h>
+#include <torch/types.h>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace hs::train {
+
+// Shared by every mean over time: causal = moving mean over frames max(0, t-T+1)..t,
+// centred = mean over all L frames of the window (broadcast back to every frame).
+enum class TimeMean { Causal, Whole };
+
+// W x + b over the last axis; weight [out, in] (PyTorch Conv/Linear layout).
+struct Conv1x1Impl : torch::nn::Module {
+  Conv1x1Impl(int in, int out, bool bias);
+  torch::Tensor forward(const torch::Tensor& x);
+  torch::Tensor weight, bias;
+};
+
+// BatchNorm over the last axis (eps 1e-5, momentum 0.1); training mode uses the batch
+// statistics over all other axes and updates the running ones (unbiased variance).
+struct ChannelNormImpl : torch::nn::Module {
+  explicit ChannelNormImpl(int channels);
+  torch::Tensor forward(const torch::Tensor& x);
+  torch::Tensor weight, bias, running_mean, running_var;
+};
+
+struct BlockOptions {
+  int c_in = 0, c_out = 0, kernel = 1;
+  enum class Pad { Causal, Centred, Valid } pad = Pad::Causal;
+  TimeMean mean = TimeMean::Causal;
+  int T = 1;             // window of the causal time means
+  bool relu_out = true;  // false for the last block of a decoder
+};
+
+// Temporal convolution over frames: weight [Cout, Cin, kt], bias [Cout].
+struct TemporalConvImpl : torch::nn::Module {
+  TemporalConvImpl(int in, int out, int kernel);
+  torch::Tensor weight, bias;
+};
+
+// One STGCB: y = tcn(gcn(x)) + res(x), with A (+B) (+C) graph aggregation.
+struct BlockImpl : torch::nn::Module {
+  BlockImpl(const StgaeConfig& config, const BlockOptions& options);
+  torch::Tensor forward(const torch::Tensor& f);  // [B, L, N, Cin] -> [B, L', N, Cout]
+
+  BlockOptions opt;
+  int K = 3, N = 0, d = 1;
+  StgaeAttention attention;
+  StgaeCVariant c_variant;
+  torch::Tensor A;  // [K, N, N], double; not a parameter (fixed by the skeleton)
+  torch::Tensor B;  // [K, N, N] learnable (attention A+B, A+B+C)
+  std::shared_ptr<torch::nn::Module> gcn, tcn, res, att;
+  std::shared_ptr<Conv1x1Impl> gcn_conv, res_conv, att_q, att_k, att_emb;
+  std::shared_ptr<ChannelNormImpl> gcn_bn, tcn_bn, res_bn;
+  std::shared_ptr<TemporalConvImpl> tcn_conv;
+  torch::Tensor att_a;  // [K, 2d] (gat)
+};
+
+struct GateImpl : torch::nn::Module {
+  GateImpl(int channels, TimeMean mean, int T);
+  torch::Tensor forward(const torch::Tensor& x);  // [B, L, N, C] -> same
+  TimeMean mean;
+  int T;
+  std::shared_ptr<torch::nn::Module> shared, time, joint;
+  std::shared_ptr<Conv1x1Impl> shared_conv, time_conv, joint_conv;
+  std::shared_ptr<ChannelNormImpl> shared_bn, bn;
+};
+
+struct TorchOutput {
+  torch::Tensor denoised_offset;   // D: [B, L, N, 3]; Xhat = x + shape_scale_m * D
+  torch::Tensor predicted_offset;  // Q: [B, DT, N, 3]; Yhat = Xhat[L-1] + shape_scale_m * Q (undefined if !predict)
+};
+
+struct StgaeNetImpl : torch::nn::Module {
+  explicit StgaeNetImpl(const StgaeConfig& config);
+  // features: [B, L, N, 6] (hs::train::input_features); centred models need L = T when
+  // predicting, causal ones take any L >= 1.
+  TorchOutput forward(const torch::Tensor& features);
+
+  StgaeConfig config;
+  std::shared_ptr<torch::nn::Module> enc, den, pre;
+  std::vector<std::shared_ptr<BlockImpl>> enc_blocks, den_blocks, pre_blocks;
+  std::shared_ptr<BlockImpl> pre_head;     // centred only
+  std::shared_ptr<Conv1x1Impl> pre_lift;   // causal only
+  std::shared_ptr<GateImpl> enc_gate, pre_gate;
+};
+
+// Positions from the offsets: Xhat = x + s*D, Yhat = Xhat[L-1] + s*Q ([B, L|DT, N, 3]).
+torch::Tensor denoised_positions(const StgaeConfig& config, const torch::Tensor& x, const TorchOutput& out);
+torch::Tensor predicted_positions(const StgaeConfig& config, const torch::Tensor& denoised, const TorchOutput& out);
+
+// Every tensor of the spec, read from the module (float32 copies). Throws
+// std::logic_error when the module and hs::stgae_tensor_specs disagree on a name or shape.
+StgaeWeights export_weights(StgaeNetImpl& net);
+// Copies weights (checked with hs::check_stgae_weights) into the module, keeping its dtype.
+void import_weights(StgaeNetImpl& net, const StgaeWeights& weights);
+
+// Moving or whole-window mean over dim 1 (frames) of a [B, L, ...] tensor.
+torch::Tensor time_mean(const torch::Tensor& x, TimeMean mean, int T);
+// Sinusoidal positional encoding [DT, C] in the given dtype.
+torch::Tensor positional_encoding(int frames, int channels, torch::Dtype dtype);
+
+}  // namespace hs::train

@@ -1,0 +1,96 @@
+#pragma once
+// Multi-STGAE training (libtorch inside trainer.cpp; this interface is torch-free so the
+// CLI command does not compile the torch headers). docs/TRAINING.md describes the config.
+#include "train_data.hpp"
+
+#include "handsteady/stgae_model.hpp"
+
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <ostream>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+namespace hs::train {
+
+// Loss weights; every term is in cm^2 (positions) so the weights are comparable.
+struct LossWeights {
+  double pose = 1.0;      // MSE of the denoised window
+  double bone = 1.0;      // (bone length error)^2 of the denoised window
+  double symmetry = 0.1;  // (symmetry edge length error)^2
+  double smooth = 0.0;    // (acceleration error)^2 of the denoised window
+  double predict = 0.2;   // MSE of the predicted frames (second phase only)
+};
+
+struct TrainConfig {
+  StgaeConfig model;
+  // Data: FPHA subjects under data_root (relative paths are relative to the working
+  // directory), or synthetic motion when synthetic_takes > 0 (tests, no data needed).
+  std::filesystem::path data_root = "../shared/data/fpha";
+  std::vector<int> train_subjects{1, 2, 3, 4};
+  std::vector<int> val_subjects{5};
+  int synthetic_takes = 0;
+  double synthetic_seconds = 20.0;
+  AugmentConfig augment;
+  std::vector<CorruptionMixEntry> mix;        // training corruption
+  std::vector<std::string> val_presets{"tracker", "paper"};
+  uint64_t val_seed = 5;
+  int val_stride = 0;                          // frames between validation windows; 0 = T
+  // Optimisation.
+  uint64_t seed = 1;
+  int epochs = 30;
+  int denoise_only_epochs = 8;                 // first step of the two-step schedule
+  int batch = 64;
+  int windows_per_epoch = 16384;
+  std::vector<std::pair<int, double>> lr{{0, 1e-3}};  // (first epoch, rate), piecewise constant
+  double grad_clip = 5.0;                      // max global gradient norm (0 = off)
+  LossWeights loss;
+  int threads = 0;                             // torch intra-op threads, 0 = default
+  std::string json;                            // the config text, kept in the model's meta
+};
+
+// JSON (docs/TRAINING.md): {"model": {...StgaeConfig...}, "data": {...}, "augment": {...},
+// "corruption": {...}, "train": {...}, "loss": {...}}. Unknown keys, wrong types and bad
+// values throw InputError naming the source and the key path.
+TrainConfig parse_train_config(std::string_view json, const std::string& source = "");
+TrainConfig read_train_config(const std::filesystem::path& path);
+double learning_rate(const TrainConfig& config, int epoch);
+
+struct PresetMetrics {
+  std::string preset;
+  size_t windows = 0;
+  double input_mpjpe_mm = 0, denoised_mpjpe_mm = 0;  // all frames of each window
+  double denoised_last_mpjpe_mm = 0;                 // newest frame (the live output)
+  double input_ebon_mm2 = 0, denoised_ebon_mm2 = 0;
+  std::vector<double> predicted_mpjpe_mm;            // per future frame
+  double hold_mpjpe_mm = 0;                          // last filled input frame held, at DT
+};
+
+struct EpochReport {
+  int epoch = 0;              // 0-based
+  bool joint_phase = false;   // false = denoise-only step
+  double lr = 0, train_loss = 0, val_loss = 0, seconds = 0;
+  std::vector<PresetMetrics> val;
+  bool best = false;
+};
+
+struct TrainOptions {
+  std::filesystem::path out;                    // best model (.hsm); checkpoint out + ".ckpt"
+  std::optional<std::filesystem::path> resume;  // checkpoint to continue from
+  std::optional<int> epochs;                    // overrides train.epochs
+  std::optional<int> threads;                   // overrides train.threads
+  bool progress = true;                         // progress bar with ETA on stderr
+};
+
+struct TrainResult {
+  std::vector<EpochReport> epochs;  // this run's epochs
+  int best_epoch = -1;
+  double best_val_loss = 0;
+};
+
+TrainResult train_stgae(const TrainConfig& config, const TrainOptions& options, std::ostream& log);
+
+}  // namespace hs::train

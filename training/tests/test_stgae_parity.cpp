@@ -1,0 +1,238 @@
+// libtorch forward (training/src/stgae_torch) vs the Eigen engine's window mode on small
+// random models: every padding, attention variant, gates on/off, predict on/off.
+// float64 must agree to 1e-9, float32 to 1e-4 relative (on the offset scale).
+#define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
+#include <doctest/doctest.h>
+
+#include "stgae_torch.hpp"
+#include "train_data.hpp"
+
+#include "handsteady/stgae_engine.hpp"
+#include "handsteady/stgae_model.hpp"
+
+#include <torch/torch.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <random>
+#include <string>
+
+using namespace hs;
+using namespace hs::train;
+
+namespace {
+
+StgaeConfig small_config(StgaePadding pad, StgaeAttention att, StgaeCVariant cv, bool gates, bool predict) {
+  StgaeConfig c;
+  c.window = 8;
+  c.horizon = 3;
+  c.temporal_kernel = 3;
+  c.encoder_channels = {6, 8, 8};
+  c.denoise_decoder_channels = {8, 8, 3};
+  c.predict_decoder_channels = {8, 3};
+  c.padding = pad;
+  c.attention = att;
+  c.c_variant = cv;
+  c.gates = gates;
+  c.predict = predict;
+  return c;
+}
+
+// Random weights with BN statistics far from identity, so that BN handling matters.
+StgaeWeights nontrivial_weights(const StgaeConfig& c, uint64_t seed) {
+  StgaeWeights w = random_stgae_weights(c, seed);
+  std::mt19937_64 rng(seed + 17);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  auto ends = [](const std::string& s, const std::string& e) {
+    return s.size() >= e.size() && s.compare(s.size() - e.size(), e.size(), e) == 0;
+  };
+  for (auto& [name, t] : w.tensors) {
+    for (float& v : t.data) {
+      if (ends(name, "running_mean")) v = static_cast<float>(u(rng) - 0.5);
+      else if (ends(name, "running_var")) v = static_cast<float>(0.3 + 2.0 * u(rng));
+      else if (ends(name, "bn.weight")) v = static_cast<float>(0.5 + u(rng));
+      else if (ends(name, "bn.bias")) v = static_cast<float>(0.4 * (u(rng) - 0.5));
+    }
+  }
+  return w;
+}
+
+// Synthetic hand frames with holes: a few joints missing at times (hole filling is part of
+// the function), including never-seen-yet joints at the start.
+std::vector<Pose> raw_input(const StgaeConfig& c, int frames, uint64_t seed) {
+  const auto flat = synthetic_hand_input(c, frames, seed);
+  std::vector<Pose> out(static_cast<size_t>(frames));
+  for (int t = 0; t < frames; ++t)
+    for (int j = 0; j < kJointCount; ++j)
+      for (int k = 0; k < 3; ++k) out[static_cast<size_t>(t)](j, k) = flat[static_cast<size_t>((t * kJointCount + j) * 3 + k)];
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  for (int t = 0; t < 3 && t < frames; ++t) out[static_cast<size_t>(t)].row(idx(Joint::IndexTip)).setConstant(nan);
+  if (frames > 4) out[4].row(idx(Joint::ThumbDistal)).setConstant(nan);
+  if (frames > 5) out[5].row(idx(Joint::Wrist)).setConstant(nan);
+  return out;
+}
+
+struct TorchResult {
+  torch::Tensor denoised, predicted, filled;  // [L, N, 3], [DT, N, 3], [L, N, 3] (float64)
+};
+
+TorchResult torch_forward(StgaeNetImpl& net, const std::vector<Pose>& raw, torch::Dtype dtype) {
+  const auto L = static_cast<int64_t>(raw.size());
+  std::vector<double> feat(static_cast<size_t>(L) * kJointCount * 6), filled(static_cast<size_t>(L) * kJointCount * 3);
+  REQUIRE(input_features(raw, net.config.shape_scale_m, net.config.velocity_scale_m, feat.data(), filled.data()));
+  auto f = torch::from_blob(feat.data(), {1, L, kJointCount, 6}, torch::kFloat64).to(dtype);
+  auto x = torch::from_blob(filled.data(), {1, L, kJointCount, 3}, torch::kFloat64).to(dtype);
+  torch::NoGradGuard no_grad;
+  const auto out = net.forward(f);
+  TorchResult r;
+  const auto X = denoised_positions(net.config, x, out);
+  r.denoised = X[0].to(torch::kFloat64);
+  r.filled = x[0].to(torch::kFloat64).clone();
+  if (net.config.predict) r.predicted = predicted_positions(net.config, X, out)[0].to(torch::kFloat64);
+  return r;
+}
+
+template <class S>
+hs::StgaeOutput<S> engine_forward(const StgaeConfig& c, const StgaeWeights& w, const std::vector<Pose>& raw) {
+  const auto net = make_stgae_net<S>(c, w);
+  StgaeFrames<S> in(static_cast<Eigen::Index>(raw.size()), 3 * kJointCount);
+  for (size_t t = 0; t < raw.size(); ++t)
+    for (int j = 0; j < kJointCount; ++j)
+      for (int k = 0; k < 3; ++k) in(static_cast<Eigen::Index>(t), 3 * j + k) = static_cast<S>(raw[t](j, k));
+  return stgae_window_forward(*net, in);
+}
+
+// Largest |torch - engine| over all values.
+template <class S>
+double max_diff(const torch::Tensor& t, const StgaeFrames<S>& e) {
+  const auto tc = t.contiguous();
+  REQUIRE(tc.numel() == e.size());
+  const double* p = tc.data_ptr<double>();
+  double m = 0.0;
+  for (Eigen::Index i = 0; i < e.size(); ++i) m = std::max(m, std::abs(p[i] - static_cast<double>(e.data()[i])));
+  return m;
+}
+
+// Largest |engine offset| in shape_scale units: the scale the float tolerance is relative to.
+template <class S>
+double max_offset(const torch::Tensor& base, const StgaeFrames<S>& e, double scale) {
+  const auto bc = base.contiguous();
+  const double* p = bc.data_ptr<double>();
+  double m = 0.0;
+  for (Eigen::Index i = 0; i < e.size(); ++i) m = std::max(m, std::abs(static_cast<double>(e.data()[i]) - p[i]) / scale);
+  return m;
+}
+
+const char* pad_name(StgaePadding p) { return p == StgaePadding::Causal ? "causal" : "centred"; }
+const char* att_name(StgaeAttention a, StgaeCVariant v) {
+  if (a == StgaeAttention::A) return "A";
+  if (a == StgaeAttention::AB) return "A+B";
+  return v == StgaeCVariant::Dot ? "A+B+C dot" : "A+B+C gat";
+}
+
+struct Variant {
+  StgaeAttention att;
+  StgaeCVariant cv;
+};
+const Variant kVariants[] = {{StgaeAttention::A, StgaeCVariant::Dot},
+                             {StgaeAttention::AB, StgaeCVariant::Dot},
+                             {StgaeAttention::ABC, StgaeCVariant::Dot},
+                             {StgaeAttention::ABC, StgaeCVariant::Gat}};
+
+}  // namespace
+
+TEST_CASE("torch forward matches the Eigen window mode (float64 1e-9, float32 1e-4)") {
+  torch::manual_seed(1);
+  uint64_t seed = 100;
+  for (const auto pad : {StgaePadding::Causal, StgaePadding::Centred})
+    for (const auto& v : kVariants)
+      for (const bool gates : {false, true})
+        for (const bool predict : {false, true}) {
+          const StgaeConfig c = small_config(pad, v.att, v.cv, gates, predict);
+          CAPTURE(pad_name(pad));
+          CAPTURE(att_name(v.att, v.cv));
+          CAPTURE(gates);
+          CAPTURE(predict);
+          const StgaeWeights w = nontrivial_weights(c, ++seed);
+          // Causal models run on sequences longer than T (moving time means, conv history);
+          // the centred predictor needs exactly T frames.
+          const int L = (pad == StgaePadding::Causal) ? 2 * c.window + 3 : (predict ? c.window : c.window + 2);
+          const auto raw = raw_input(c, L, seed);
+
+          StgaeNetImpl net(c);
+          import_weights(net, w);
+          net.eval();
+
+          // Export gives back exactly the imported float32 weights.
+          const StgaeWeights back = export_weights(net);
+          for (const auto& [name, t] : w.tensors) {
+            CAPTURE(name);
+            CHECK(back.at(name).data == t.data);
+          }
+
+          net.to(torch::kFloat64);
+          const auto t64 = torch_forward(net, raw, torch::kFloat64);
+          const auto e64 = engine_forward<double>(c, w, raw);
+          CHECK(max_diff(t64.denoised, e64.denoised) <= 1e-9);
+          // The comparison is not vacuous: the model changes its input.
+          CHECK(max_offset(t64.filled, e64.denoised, c.shape_scale_m) > 1e-3);
+          if (predict) {
+            REQUIRE(e64.predicted.rows() == c.horizon);
+            CHECK(max_diff(t64.predicted, e64.predicted) <= 1e-9);
+          }
+
+          net.to(torch::kFloat32);
+          const auto t32 = torch_forward(net, raw, torch::kFloat32);
+          const auto e32 = engine_forward<float>(c, w, raw);
+          const double scale = std::max(1.0, max_offset(t64.filled, e64.denoised, c.shape_scale_m));
+          CHECK(max_diff(t32.denoised, e32.denoised) / c.shape_scale_m <= 1e-4 * scale);
+          if (predict) {
+            const double pscale = std::max(1.0, max_offset(t64.filled.narrow(0, L - 1, 1).expand({c.horizon, kJointCount, 3}),
+                                                            e64.predicted, c.shape_scale_m));
+            CHECK(max_diff(t32.predicted, e32.predicted) / c.shape_scale_m <= 1e-4 * pscale);
+          }
+        }
+}
+
+TEST_CASE("a one-weight change is visible to the parity comparison") {
+  for (const auto pad : {StgaePadding::Causal, StgaePadding::Centred}) {
+    const StgaeConfig c = small_config(pad, StgaeAttention::ABC, StgaeCVariant::Dot, true, true);
+    const StgaeWeights w = nontrivial_weights(c, 7);
+    StgaeWeights w2 = w;
+    w2.tensors.at("enc.0.B").data[5] += 1e-3f;
+    const auto raw = raw_input(c, c.window, 3);
+    StgaeNetImpl net(c);
+    import_weights(net, w2);
+    net.eval();
+    net.to(torch::kFloat64);
+    const auto t = torch_forward(net, raw, torch::kFloat64);
+    const auto e = engine_forward<double>(c, w, raw);
+    CHECK(max_diff(t.denoised, e.denoised) > 1e-7);
+  }
+}
+
+TEST_CASE("training-mode BatchNorm differs from eval mode, eval mode is what is exported") {
+  const StgaeConfig c = small_config(StgaePadding::Causal, StgaeAttention::AB, StgaeCVariant::Dot, true, true);
+  const StgaeWeights w = nontrivial_weights(c, 9);
+  StgaeNetImpl net(c);
+  import_weights(net, w);
+  net.to(torch::kFloat64);
+  const auto raw = raw_input(c, c.window, 4);
+  net.train();
+  const auto tt = torch_forward(net, raw, torch::kFloat64);  // also updates running stats
+  net.eval();
+  const auto e = engine_forward<double>(c, w, raw);
+  CHECK(max_diff(tt.denoised, e.denoised) > 1e-6);
+  // The running statistics moved (momentum 0.1), so re-exported weights differ from w.
+  const auto back = export_weights(net);
+  CHECK(back.at("enc.0.gcn.bn.running_mean").data != w.at("enc.0.gcn.bn.running_mean").data);
+}
+
+TEST_CASE("import rejects weights of another shape") {
+  const StgaeConfig c = small_config(StgaePadding::Causal, StgaeAttention::AB, StgaeCVariant::Dot, false, false);
+  StgaeWeights w = random_stgae_weights(c, 1);
+  w.tensors.at("enc.0.res.conv.weight").shape = {8, 5};
+  StgaeNetImpl net(c);
+  CHECK_THROWS_AS(import_weights(net, w), InputError);
+}

@@ -1,0 +1,215 @@
+// Training data pieces (features, clips, augmentation), the config parser, and a tiny
+// two-epoch training run on synthetic motion (no recorded data needed).
+#define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
+#include <doctest/doctest.h>
+
+#include "train_data.hpp"
+#include "trainer.hpp"
+
+#include "handsteady/error.hpp"
+#include "handsteady/stgae_model.hpp"
+#include "handsteady/synth.hpp"
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <sstream>
+#include <string>
+
+using namespace hs;
+using namespace hs::train;
+
+namespace {
+
+std::filesystem::path temp_dir(const std::string& name) {
+  auto p = std::filesystem::temp_directory_path() / ("handsteady_train_" + name + "_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(p);
+  return p;
+}
+
+Pose line_pose(double offset) {
+  Pose p;
+  for (int j = 0; j < kJointCount; ++j) p.row(j) << 0.01 * j + offset, 1.0, -0.5;
+  return p;
+}
+
+const char* kTinyConfig = R"({
+  "model": {"window": 8, "horizon": 2, "temporal_kernel": 3, "padding": "causal",
+            "encoder_channels": [6, 12, 12], "denoise_decoder_channels": [12, 8, 3],
+            "predict_decoder_channels": [12, 3], "attention": "A+B+C", "c_variant": "dot"},
+  "data": {"synthetic_takes": 4, "synthetic_seconds": 8},
+  "augment": {"speed_factors": [0.8, 1.0]},
+  "corruption": {"mix": [{"presets": "tracker", "weight": 1}, {"presets": "paper+tremor", "weight": 1}],
+                 "val_presets": ["tracker", "paper"]},
+  "train": {"seed": 3, "epochs": 2, "denoise_only_epochs": 0, "batch": 16, "windows_per_epoch": 192,
+            "lr": [[0, 0.003], [1, 0.002]], "threads": 1},
+  "loss": {"smooth": 0.1}
+})";
+
+}  // namespace
+
+TEST_CASE("input features: hole filling and the 6 channels by hand") {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  std::vector<Pose> raw{line_pose(0.0), line_pose(0.02), line_pose(0.05)};
+  raw[0].row(idx(Joint::IndexTip)).setConstant(nan);  // never seen yet: takes the wrist
+  raw[2].row(idx(Joint::ThumbTip)).setConstant(nan);  // holds its last value
+  std::vector<double> f(3 * kJointCount * 6), x(3 * kJointCount * 3);
+  REQUIRE(input_features(raw, 0.1, 0.01, f.data(), x.data()));
+  auto F = [&](int t, int j, int c) { return f[static_cast<size_t>((t * kJointCount + j) * 6 + c)]; };
+  auto X = [&](int t, int j, int c) { return x[static_cast<size_t>((t * kJointCount + j) * 3 + c)]; };
+  const int w = idx(Joint::Wrist), tip = idx(Joint::IndexTip), thumb = idx(Joint::ThumbTip);
+  CHECK(X(0, tip, 0) == doctest::Approx(X(0, w, 0)));
+  CHECK(F(0, tip, 0) == doctest::Approx(0.0));
+  // Shape: (x - wrist) / 0.1 m; joint j sits 0.01*(j - 1) m from the wrist along x.
+  const int m = idx(Joint::IndexProximal);
+  CHECK(F(1, m, 0) == doctest::Approx(0.01 * (m - w) / 0.1));
+  // Velocity: 0 at t = 0; the line moved 0.02 m between frames 0 and 1 -> 2 units.
+  CHECK(F(0, m, 3) == 0.0);
+  CHECK(F(1, m, 3) == doctest::Approx(2.0));
+  // The first sighting of the index tip is a jump from the wrist.
+  CHECK(F(1, tip, 3) == doctest::Approx((0.01 * tip + 0.02 - (0.01 * w + 0.0)) / 0.01));
+  // The held thumb tip does not move in frame 2 while the others moved 0.03 m.
+  CHECK(F(2, thumb, 3) == 0.0);
+  CHECK(X(2, thumb, 0) == doctest::Approx(0.01 * thumb + 0.02));
+  CHECK(F(2, m, 3) == doctest::Approx(3.0));
+  // A window whose first frame has nothing tracked is not valid input.
+  std::vector<Pose> none{untracked_pose(), line_pose(0.0)};
+  CHECK_FALSE(input_features(none, 0.1, 0.01, f.data(), x.data()));
+}
+
+TEST_CASE("clips are split at untracked frames and resampled per playback speed") {
+  HandSeries s;
+  for (int i = 0; i < 30; ++i) {
+    s.t.push_back(i / 30.0);
+    s.pos.push_back(line_pose(0.001 * i));
+  }
+  s.pos[10] = untracked_pose();
+  const ClipSet one = make_clips({s}, 30.0, {1.0}, 5);
+  REQUIRE(one.clips.size() == 2);
+  CHECK(one.clips[0].size() == 10);
+  CHECK(one.clips[1].size() == 19);
+  // Twice the speed: half as many frames, each step covers two original frames.
+  const ClipSet fast = make_clips({s}, 30.0, {2.0}, 3);
+  REQUIRE(fast.clips.size() == 2);
+  CHECK(fast.clips[0].size() == 5);
+  CHECK(fast.clips[0][1](0, 0) == doctest::Approx(0.002));
+}
+
+TEST_CASE("augmented windows keep bone lengths up to the hand-size scale") {
+  SynthMotionParams p;
+  p.duration_s = 3;
+  const ClipSet clips = make_clips({synth_motion(p, Hand::Right, 1)}, 30.0, {1.0}, 10);
+  AugmentConfig aug;
+  aug.scale_min = aug.scale_max = 1.1;
+  aug.mirror_prob = 0.5;
+  const WindowSampler sampler(clips, 8, 2, 30.0, aug, {{{}, 1.0}});  // clean input
+  std::mt19937_64 rng(5);
+  const auto& bones = xr_hand_skeleton().bones;
+  for (int i = 0; i < 20; ++i) {
+    const Window w = sampler.draw(rng);
+    REQUIRE(w.input.size() == 8);
+    REQUIRE(w.truth.size() == 10);
+    CHECK((w.input[3] - w.truth[3]).norm() == 0.0);  // no corruption in this mix
+    // The first bone's length is 1.1x a length found somewhere in the clip.
+    const auto [a, b] = bones[3];
+    const double len = (w.truth[0].row(a) - w.truth[0].row(b)).norm();
+    const double ref = (clips.clips[0][0].row(a) - clips.clips[0][0].row(b)).norm();
+    CHECK(len == doctest::Approx(1.1 * ref).epsilon(1e-9));  // synthetic bones are rigid
+  }
+}
+
+TEST_CASE("corruption chains are seeded and checked") {
+  CHECK(parse_preset_chain("tracker+tremor").size() == 2);
+  CHECK(parse_preset_chain("clean").empty());
+  CHECK_THROWS_AS(parse_preset_chain("tracker+bogus"), std::invalid_argument);
+  std::vector<Pose> clean(20, line_pose(0.0));
+  const auto a = corrupt_chain(clean, 30.0, {"tremor"}, 9), b = corrupt_chain(clean, 30.0, {"tremor"}, 9);
+  CHECK((a[7] - b[7]).norm() == 0.0);
+  CHECK((a[7] - clean[7]).norm() > 1e-5);
+}
+
+TEST_CASE("training config errors name the key") {
+  auto error_field = [](const std::string& text) {
+    try {
+      (void)parse_train_config(text, "cfg.json");
+    } catch (const InputError& e) {
+      return e.where().field;
+    }
+    return std::string("(no error)");
+  };
+  CHECK(error_field(R"({"model": {}, "train": {"epochs": 0}})") == "train.epochs");
+  CHECK(error_field(R"({"model": {}, "train": {"epocs": 3}})") == "train.epocs");
+  CHECK(error_field(R"({"model": {}, "train": {"lr": [[1, 0.001]]}})") == "train.lr");
+  CHECK(error_field(R"({"model": {}, "corruption": {"val_presets": ["nope"]}})") == "corruption.val_presets");
+  CHECK(error_field(R"({"model": {}, "data": {"train_subjects": [1, 5]}})") == "data.val_subjects");
+  CHECK(error_field(R"({"train": {}})") == "model");
+  CHECK(error_field(R"({"model": {"window": "x"}})") == "window");
+  const auto c = parse_train_config(R"({"model": {}, "train": {"lr": [[0, 0.01], [5, 0.001]]}})");
+  CHECK(learning_rate(c, 4) == 0.01);
+  CHECK(learning_rate(c, 5) == 0.001);
+}
+
+TEST_CASE("two tiny epochs on synthetic motion: the loss decreases, the model file loads, resume continues") {
+  const auto dir = temp_dir("smoke");
+  const auto out = dir / "tiny.hsm";
+  const TrainConfig config = parse_train_config(kTinyConfig, "tiny");
+  TrainOptions opt;
+  opt.out = out;
+  opt.progress = false;
+  std::ostringstream log;
+  const TrainResult r = train_stgae(config, opt, log);
+  INFO(log.str());
+  REQUIRE(r.epochs.size() == 2);
+  CHECK(r.epochs[1].train_loss < r.epochs[0].train_loss);
+  CHECK(r.epochs[1].val_loss < r.epochs[0].val_loss);
+  // Metrics per validation preset (their values are the real run's business).
+  REQUIRE(r.epochs[1].val.size() == 2);
+  CHECK(r.epochs[1].val[0].predicted_mpjpe_mm.size() == 2);
+  const auto model = load_hsm(out, true);  // verifies the engine reproduces the reference
+  CHECK(model->config.window == 8);
+  CHECK(model->config.meta_json.find("\"epoch\"") != std::string::npos);
+
+  // Resume: one more epoch starts at epoch index 2.
+  opt.resume = std::filesystem::path(out.string() + ".ckpt");
+  opt.epochs = 3;
+  std::ostringstream log2;
+  const TrainResult r2 = train_stgae(config, opt, log2);
+  REQUIRE(r2.epochs.size() == 1);
+  CHECK(r2.epochs[0].epoch == 2);
+  CHECK(r2.epochs[0].train_loss < r.epochs[0].train_loss);
+
+  // A checkpoint of another architecture is refused.
+  TrainConfig other = config;
+  other.model.encoder_channels = {6, 10, 12};
+  CHECK_THROWS_AS(train_stgae(other, opt, log2), InputError);
+  std::filesystem::remove_all(dir);
+}
+
+#ifdef HS_CLI_PATH
+TEST_CASE("handsteady train runs from the command line and reports bad configs") {
+  const auto dir = temp_dir("cli");
+  {
+    std::ofstream f(dir / "tiny.json");
+    f << kTinyConfig;
+    std::ofstream g(dir / "bad.json");
+    g << R"({"model": {}, "train": {"batch": 1}})";
+  }
+  auto run = [](const std::string& args) {
+    const std::string cmd = std::string("\"") + HS_CLI_PATH + "\" " + args + " > /dev/null 2>&1";
+    const int rc = std::system(cmd.c_str());
+    return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+  };
+  CHECK(run("train --config " + (dir / "tiny.json").string() + " --out " + (dir / "m.hsm").string() +
+            " --epochs 1 --quiet") == 0);
+  CHECK(std::filesystem::exists(dir / "m.hsm"));
+  CHECK(std::filesystem::exists(dir / "m.hsm.ckpt"));
+  CHECK(run("train --config " + (dir / "bad.json").string() + " --out " + (dir / "n.hsm").string()) == 2);
+  CHECK_FALSE(std::filesystem::exists(dir / "n.hsm"));
+  std::filesystem::remove_all(dir);
+}
+#endif
