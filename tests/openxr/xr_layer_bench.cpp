@@ -1,6 +1,8 @@
 // Time the layer adds to one xrLocateHandJointsEXT call: the same app, the same replayed
 // track, once without and once with the layer (default configuration), both hands,
 // VIEW base space with head motion and chained velocities. Prints p50/p99 per call.
+// The layer runs its default engine (the shipped model when found) unless HS_BENCH_METHOD
+// names one (raw, oneeuro, desp, kalman, stgae).
 //   HS_BENCH_FRAMES=3000 xr_layer_bench
 #include "xr_test_app.hpp"
 
@@ -51,6 +53,8 @@ TEST_CASE("layer overhead per xrLocateHandJointsEXT call") {
   const int g_frames = bench_frames();
   const TrackFiles f = make_tracks("bench", std::max(2.0, static_cast<double>(g_frames) / 90.0 + 1.0));
   reset_env(f);
+  if (const char* m = std::getenv("HS_BENCH_METHOD"); m && *m) set_env("HANDSTEADY_METHOD", m);
+  else unset_env("HANDSTEADY_METHOD");
   set_env("HANDSTEADY_SHIM_HEAD_MOTION", "1");
   const auto off = measure(g_frames);
   enable_layers({kLayer});
