@@ -15,30 +15,8 @@ using hs::Joint;
 using hs::Pose;
 using hs::idx;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using hs::test::synthetic_hand;
 
-// A plausible open right hand (metres): fingers straight along +y, palm in the xy plane.
-Pose synthetic_hand() {
-  Pose p = Pose::Zero();
-  auto set = [&](Joint j, double x, double y, double z) { p.row(idx(j)) << x, y, z; };
-  set(Joint::Wrist, 0, 0, 0);
-  set(Joint::Palm, 0, 0.05, 0.002);
-  set(Joint::ThumbMetacarpal, 0.02, 0.02, 0.0);
-  set(Joint::ThumbProximal, 0.045, 0.045, 0.005);
-  set(Joint::ThumbDistal, 0.06, 0.075, 0.008);
-  set(Joint::ThumbTip, 0.07, 0.10, 0.01);
-  const Joint first[4] = {Joint::IndexMetacarpal, Joint::MiddleMetacarpal, Joint::RingMetacarpal,
-                          Joint::LittleMetacarpal};
-  for (int f = 0; f < 4; ++f) {
-    const double x = 0.025 - 0.017 * f, y0 = 0.09 - 0.006 * std::abs(f - 1), z = 0.001 * f;
-    const int j = idx(first[f]);
-    p.row(j) << 0.6 * x, 0.025, z;
-    p.row(j + 1) << x, y0, z;
-    p.row(j + 2) << x, y0 + 0.04, z;
-    p.row(j + 3) << x, y0 + 0.065, z;
-    p.row(j + 4) << x, y0 + 0.085, z;
-  }
-  return p;
-}
 
 hs::HandSeries static_series(size_t n, double rate_hz, const Pose& pose = synthetic_hand()) {
   hs::HandSeries s;

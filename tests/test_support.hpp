@@ -2,6 +2,8 @@
 // Helpers shared by the tests: where fixtures and the optional recorded data live.
 #include <doctest/doctest.h>
 
+#include "handsteady/track.hpp"
+
 #include <cstdlib>
 #include <filesystem>
 #include <string>
@@ -22,6 +24,30 @@ inline std::filesystem::path shared_data() {
 inline std::filesystem::path temp_dir(const std::string& name) {
   auto p = std::filesystem::temp_directory_path() / ("handsteady_test_" + name + "_" + std::to_string(::getpid()));
   std::filesystem::create_directories(p);
+  return p;
+}
+
+// A plausible open right hand (metres): fingers straight along +y, palm in the xy plane,
+// wrist at the origin. Straight fingers make bone and offset answers easy to compute.
+inline Pose synthetic_hand() {
+  Pose p = Pose::Zero();
+  auto set = [&](Joint j, double x, double y, double z) { p.row(idx(j)) << x, y, z; };
+  set(Joint::Palm, 0, 0.05, 0.002);
+  set(Joint::ThumbMetacarpal, 0.02, 0.02, 0.0);
+  set(Joint::ThumbProximal, 0.045, 0.045, 0.005);
+  set(Joint::ThumbDistal, 0.06, 0.075, 0.008);
+  set(Joint::ThumbTip, 0.07, 0.10, 0.01);
+  const Joint first[4] = {Joint::IndexMetacarpal, Joint::MiddleMetacarpal, Joint::RingMetacarpal,
+                          Joint::LittleMetacarpal};
+  for (int f = 0; f < 4; ++f) {
+    const double x = 0.025 - 0.017 * f, y0 = 0.09 - 0.006 * std::abs(f - 1), z = 0.001 * f;
+    const int j = idx(first[f]);
+    p.row(j) << 0.6 * x, 0.025, z;
+    p.row(j + 1) << x, y0, z;
+    p.row(j + 2) << x, y0 + 0.04, z;
+    p.row(j + 3) << x, y0 + 0.065, z;
+    p.row(j + 4) << x, y0 + 0.085, z;
+  }
   return p;
 }
 
