@@ -13,11 +13,15 @@ out=${HS_DEMO_OUT:-out/demo}
 mkdir -p "$out"
 $hs synth --out "$out/clean.csv" --seconds 30 --seed 1
 $hs corrupt --in "$out/clean.csv" --out "$out/noisy.csv" --preset tracker --seed 1
-for m in raw oneeuro desp kalman; do
+cmp=()
+for m in raw oneeuro desp kalman stgae; do  # stgae: the shipped model in models/
   $hs filter --in "$out/noisy.csv" --out "$out/$m.csv" --method "$m"
   echo "== $m (denoise) =="
   $hs eval --truth "$out/clean.csv" --in "$out/$m.csv"
+  cmp+=(--in "$m=$out/$m.csv")
 done
+echo "== synthetic track, tracker preset: all methods =="
+$hs compare --truth "$out/clean.csv" "${cmp[@]}" | tee "$out/summary.md"
 data=${HS_SHARED_DATA:-$root/../shared/data}
 if [ -d "$data/fpha/Subject_5" ]; then
   scripts/fpha_table.sh "$hs" "$data" "$out/fpha"
