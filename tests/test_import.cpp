@@ -4,6 +4,7 @@
 #include "test_support.hpp"
 
 #include <Eigen/Geometry>
+#include <fmt/format.h>
 
 #include <algorithm>
 #include <cmath>
@@ -37,6 +38,27 @@ Eigen::Vector3d fpha_fixture_joint(int j, int f) {
   return {0.001 * (10 * j + f), -0.001 * (100 + j), -0.001 * (300 + 2 * j)};
 }
 
+// Writes the FPHA fixture tree once per run: Subject_1/act_a/1 (3 frames), act_a/2 (empty,
+// as three real FPHA takes are), act_b/1 (4 frames). Generated rather than committed so no
+// file named like a recording is tracked.
+std::filesystem::path fpha_fixture_dir() {
+  static const std::filesystem::path root = [] {
+    const auto dir = test::temp_dir("fpha_fixture") / "fpha";
+    const std::pair<const char*, int> takes[] = {{"Subject_1/act_a/1", 3}, {"Subject_1/act_a/2", 0}, {"Subject_1/act_b/1", 4}};
+    for (auto [take, frames] : takes) {
+      std::filesystem::create_directories(dir / take);
+      std::ofstream out(dir / take / "skeleton.txt");
+      for (int f = 0; f < frames; ++f) {
+        out << fmt::format("{:04d}", f);
+        for (int j = 0; j < 21; ++j) out << fmt::format(" {:.4f} {:.4f} {:.4f}", 10.0 * j + f, 100.0 + j, 300.0 + 2.0 * j);
+        out << '\n';
+      }
+    }
+    return dir;
+  }();
+  return root;
+}
+
 double median_bone_mm(const HandSeries& s, Joint a, Joint b) {
   std::vector<double> d;
   for (const auto& p : s.pos)
@@ -51,7 +73,7 @@ double median_bone_mm(const HandSeries& s, Joint a, Joint b) {
 // ---------------------------------------------------------------- FPHA
 
 TEST_CASE("fpha: joints map to the XR columns with mm -> m and (x, -y, -z)") {
-  const Track t = import_fpha_file(test::fixture("fpha/Subject_1/act_a/1/skeleton.txt"));
+  const Track t = import_fpha_file(fpha_fixture_dir() / "Subject_1/act_a/1/skeleton.txt");
   REQUIRE(t.rows.size() == 3);
   // FPHA index: wrist 0, thumb MCP 1, index MCP 2, middle MCP 3, ..., index tip 11, little tip 20.
   const std::pair<int, Joint> expect[] = {{0, Joint::Wrist},          {1, Joint::ThumbMetacarpal},
@@ -73,7 +95,7 @@ TEST_CASE("fpha: joints map to the XR columns with mm -> m and (x, -y, -z)") {
 }
 
 TEST_CASE("fpha: derived metacarpals and palm follow the documented formulas") {
-  const Track t = import_fpha_file(test::fixture("fpha/Subject_1/act_a/1/skeleton.txt"));
+  const Track t = import_fpha_file(fpha_fixture_dir() / "Subject_1/act_a/1/skeleton.txt");
   const Pose& p = t.rows[1].pos;
   const Eigen::Vector3d w = fpha_fixture_joint(0, 1);
   const double a[4] = {0.25, 0.24, 0.27, 0.33};
@@ -87,7 +109,7 @@ TEST_CASE("fpha: derived metacarpals and palm follow the documented formulas") {
 }
 
 TEST_CASE("fpha: empty file gives an empty track") {
-  const Track t = import_fpha_file(test::fixture("fpha/Subject_1/act_a/2/skeleton.txt"));
+  const Track t = import_fpha_file(fpha_fixture_dir() / "Subject_1/act_a/2/skeleton.txt");
   CHECK(t.rows.empty());
   CHECK(t.meta("source").has_value());
 }
@@ -117,7 +139,7 @@ TEST_CASE("fpha: bad lines name file, line and field") {
 }
 
 TEST_CASE("fpha: directory import, one track per take and concatenation") {
-  const auto dir = test::fixture("fpha");
+  const auto dir = fpha_fixture_dir();
   const auto takes = import_fpha_takes(dir);
   REQUIRE(takes.size() == 3);  // sorted: act_a/1 (3 rows), act_a/2 (empty), act_b/1 (4 rows)
   CHECK(takes[0].rows.size() == 3);
@@ -149,7 +171,7 @@ TEST_CASE("fpha: directory import, one track per take and concatenation") {
 }
 
 TEST_CASE("fpha: a single file import is that take") {
-  const Track t = import_fpha(test::fixture("fpha/Subject_1/act_b/1/skeleton.txt"));
+  const Track t = import_fpha(fpha_fixture_dir() / "Subject_1/act_b/1/skeleton.txt");
   CHECK(t.rows.size() == 4);
 }
 
@@ -496,7 +518,7 @@ TEST_CASE("real data: a ManipNet BVH gives plausible finger bones and hand size"
 TEST_CASE("cli: import writes a readable track; bad input fails with a location") {
   const auto dir = test::temp_dir("import");
   const auto out = dir / "fpha.csv";
-  CHECK(test::run_cli("import --format fpha --in \"" + test::fixture("fpha").string() + "\" --out \"" + out.string() +
+  CHECK(test::run_cli("import --format fpha --in \"" + fpha_fixture_dir().string() + "\" --out \"" + out.string() +
                       "\" > /dev/null") == 0);
   const Track t = read_track_csv(out);
   CHECK(t.rows.size() == 8);
