@@ -63,7 +63,6 @@ TEST_CASE("columns: t, hand, then x/y/z for the 26 joints") {
 }
 
 TEST_CASE("parse: metadata, rows, missing joints and untracked hands") {
-  std::string text;
   // Row 3: index_tip (joint 10) missing via empty fields, row 4: whole hand untracked.
   std::string r3 = row("0.0333", "right");
   {
@@ -74,7 +73,7 @@ TEST_CASE("parse: metadata, rows, missing joints and untracked hands") {
     r3 = t.substr(header().size());
   }
   std::string r4 = "0.0666,right" + std::string(3 * kJointCount, ',') + "\n";
-  text = "# source: unit test\n# rate_hz: 30\n# just a comment\n" + header() + row("0.0", "left") +
+  const std::string text = "# source: unit test\n# rate_hz: 30\n# just a comment\n" + header() + row("0.0", "left") +
          row("0.0", "right") + r3 + r4;
   Track tr = parse(text);
   REQUIRE(tr.rows.size() == 4);

@@ -10,13 +10,6 @@ namespace hs {
 
 namespace {
 
-// Bone lengths (m) of an adult hand, roughly the medians of the FPHA recordings.
-struct FingerGeometry {
-  Eigen::Vector3d metacarpal_base;  // relative to the wrist
-  Eigen::Vector3d knuckle;          // proximal joint, relative to the wrist
-  double phalanges[3];              // proximal, intermediate, distal lengths
-};
-
 constexpr double kPi = std::numbers::pi;
 
 Eigen::Matrix3d rot_x(double a) { return Eigen::AngleAxisd(a, Eigen::Vector3d::UnitX()).toRotationMatrix(); }
@@ -30,6 +23,7 @@ Pose synth_hand_pose(const HandArticulation& art, const HandShapeParams& shape) 
   auto set = [&](Joint j, const Eigen::Vector3d& v) { p.row(idx(j)) = (s * v).transpose(); };
   set(Joint::Wrist, Eigen::Vector3d::Zero());
   // Four fingers: metacarpal bases near the wrist, knuckles fanned across the palm.
+  // Typical adult lengths (m), wrist -> middle knuckle about 95 mm.
   const double knuckle_x[4] = {-0.030, -0.010, 0.010, 0.028};
   const double knuckle_z[4] = {-0.092, -0.095, -0.090, -0.082};
   const double lengths[4][3] = {{0.040, 0.024, 0.020}, {0.044, 0.028, 0.022}, {0.041, 0.027, 0.021}, {0.032, 0.020, 0.019}};

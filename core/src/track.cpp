@@ -8,7 +8,6 @@
 #include <istream>
 #include <limits>
 #include <ostream>
-#include <sstream>
 
 namespace hs {
 
