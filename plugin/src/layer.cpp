@@ -13,6 +13,7 @@
 
 #include "handsteady/track.hpp"
 #include "handsteady_xr/loader_negotiation.hpp"
+#include "handsteady_xr/raw_joints_ext.h"
 #include "handsteady_xr/xr_math.hpp"
 #include "layer_config.hpp"
 #include "tracker_filter.hpp"
@@ -73,6 +74,7 @@ struct InstanceData {
   PFN_xrDestroyHandTrackerEXT DestroyHandTrackerEXT = nullptr;
   PFN_xrLocateHandJointsEXT LocateHandJointsEXT = nullptr;
   bool hand_tracking = false;  // the app enabled XR_EXT_hand_tracking
+  bool raw_joints = false;     // the app enabled our XR_NOVENDOR_handsteady_raw_joints
   LayerConfig config;
 };
 
@@ -371,6 +373,24 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
   return res;
 }
 
+// XR_NOVENDOR_handsteady_raw_joints: the runtime's answer, untouched. Trackers are
+// registered only when the layer filters (mode not off); otherwise the call goes to the
+// one live instance (the loader allows one per process) that enabled the extension.
+XRAPI_ATTR XrResult XRAPI_CALL LocateRawHandJointsNOVENDOR(XrHandTrackerEXT tracker,
+                                                           const XrHandJointsLocateInfoEXT* info,
+                                                           XrHandJointLocationsEXT* out) noexcept {
+  std::shared_ptr<const InstanceData> inst;
+  if (const auto t = find_shared(reg().trackers, tracker)) {
+    inst = t->inst;
+  } else {
+    std::shared_lock lock(reg().mu);
+    for (const auto& [handle, d] : reg().instances)
+      if (d->raw_joints && d->LocateHandJointsEXT) inst = d;
+  }
+  if (!inst || !inst->LocateHandJointsEXT) return XR_ERROR_HANDLE_INVALID;
+  return inst->LocateHandJointsEXT(tracker, info, out);
+}
+
 // ---------------------------------------------------------------- session / instance hooks
 
 XRAPI_ATTR XrResult XRAPI_CALL CreateSession(XrInstance instance, const XrSessionCreateInfo* info,
@@ -445,6 +465,13 @@ XRAPI_ATTR XrResult XRAPI_CALL GetInstanceProcAddr(XrInstance instance, const ch
   };
   if (n == "xrGetInstanceProcAddr") return ours(&GetInstanceProcAddr);
   if (n == "xrDestroyInstance") return ours(&DestroyInstance);
+  if (n == "xrLocateRawHandJointsNOVENDOR") {
+    if (!inst->raw_joints || !inst->LocateHandJointsEXT) {
+      *fn = nullptr;
+      return XR_ERROR_FUNCTION_UNSUPPORTED;
+    }
+    return ours(&LocateRawHandJointsNOVENDOR);
+  }
   if (inst->hand_tracking && inst->config.mode != Mode::Off) {
     // Hooked only when the app enabled XR_EXT_hand_tracking and the runtime has them.
     const bool have = inst->CreateHandTrackerEXT && inst->DestroyHandTrackerEXT && inst->LocateHandJointsEXT &&
@@ -478,7 +505,23 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateApiLayerInstance(const XrInstanceCreateInfo
     return XR_ERROR_INITIALIZATION_FAILED;
   XrApiLayerCreateInfo down = *layerInfo;
   down.nextInfo = layerInfo->nextInfo->next;
-  const XrResult res = layerInfo->nextInfo->nextCreateApiLayerInstance(info, &down, instance);
+  // Our own extension is ours to answer: the layers and runtime below never see it.
+  std::vector<const char*> down_extensions;
+  bool raw_joints = false;
+  try {
+    for (uint32_t i = 0; i < info->enabledExtensionCount; ++i) {
+      if (std::string_view(info->enabledExtensionNames[i]) == XR_NOVENDOR_HANDSTEADY_RAW_JOINTS_EXTENSION_NAME)
+        raw_joints = true;
+      else
+        down_extensions.push_back(info->enabledExtensionNames[i]);
+    }
+  } catch (...) {
+    return XR_ERROR_OUT_OF_MEMORY;
+  }
+  XrInstanceCreateInfo down_info = *info;
+  down_info.enabledExtensionCount = static_cast<uint32_t>(down_extensions.size());
+  down_info.enabledExtensionNames = down_extensions.data();
+  const XrResult res = layerInfo->nextInfo->nextCreateApiLayerInstance(&down_info, &down, instance);
   if (XR_FAILED(res)) return res;
   try {
     auto d = std::make_shared<InstanceData>();
@@ -492,6 +535,7 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateApiLayerInstance(const XrInstanceCreateInfo
     load(*d, "xrLocateSpace", d->LocateSpace);
     for (uint32_t i = 0; i < info->enabledExtensionCount; ++i)
       if (std::string_view(info->enabledExtensionNames[i]) == XR_EXT_HAND_TRACKING_EXTENSION_NAME) d->hand_tracking = true;
+    d->raw_joints = raw_joints && d->hand_tracking;
     if (d->hand_tracking) {
       load(*d, "xrCreateHandTrackerEXT", d->CreateHandTrackerEXT);
       load(*d, "xrDestroyHandTrackerEXT", d->DestroyHandTrackerEXT);

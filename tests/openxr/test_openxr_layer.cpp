@@ -5,6 +5,7 @@
 #include "handsteady_xr/xr_math.hpp"
 #include "test_support.hpp"
 #include "xr_test_app.hpp"
+#include "handsteady_xr/raw_joints_ext.h"
 
 #include <doctest/doctest.h>
 
@@ -127,6 +128,71 @@ TEST_CASE("denoise: both hands closer to the clean track than the raw replay, in
     }
     app.shutdown();
   }
+}
+
+TEST_CASE("raw-joints extension: the runtime's joints beside the filtered ones") {
+  const TrackFiles f = make_tracks("rawext", 2.0);
+  reset_env(f);
+  // Without the layer the loader refuses the extension: only the layer provides it.
+  {
+    XrInstanceCreateInfo ci{};
+    ci.type = XR_TYPE_INSTANCE_CREATE_INFO;
+    std::snprintf(ci.applicationInfo.applicationName, XR_MAX_APPLICATION_NAME_SIZE, "handsteady-test");
+    ci.applicationInfo.apiVersion = XR_CURRENT_API_VERSION;
+    const char* ext[] = {XR_EXT_HAND_TRACKING_EXTENSION_NAME, XR_NOVENDOR_HANDSTEADY_RAW_JOINTS_EXTENSION_NAME};
+    ci.enabledExtensionCount = 2;
+    ci.enabledExtensionNames = ext;
+    XrInstance inst = XR_NULL_HANDLE;
+    CHECK(xrCreateInstance(&ci, &inst) == XR_ERROR_EXTENSION_NOT_PRESENT);
+  }
+  // Core validation below the layer: what the layer sends down stays valid.
+  enable_layers({kLayer, kCoreValidation});
+  const auto log = f.dir / "core_validation_rawext.txt";
+  std::filesystem::remove(log);
+  set_env("XR_CORE_VALIDATION_EXPORT_TYPE", "text");
+  set_env("XR_CORE_VALIDATION_FILE_NAME", log.string());
+  for (const std::string mode : {"denoise", "off"}) {
+    CAPTURE(mode);
+    set_env("HANDSTEADY_MODE", mode);
+    uint32_t count = 0;
+    REQUIRE(xrEnumerateInstanceExtensionProperties(kLayer, 0, &count, nullptr) == XR_SUCCESS);
+    std::vector<XrExtensionProperties> props(count, XrExtensionProperties{XR_TYPE_EXTENSION_PROPERTIES, nullptr, {}, 0});
+    REQUIRE(xrEnumerateInstanceExtensionProperties(kLayer, count, &count, props.data()) == XR_SUCCESS);
+    CHECK(std::any_of(props.begin(), props.end(), [](const XrExtensionProperties& p) {
+      return std::string_view(p.extensionName) == XR_NOVENDOR_HANDSTEADY_RAW_JOINTS_EXTENSION_NAME;
+    }));
+    App app(true, {XR_NOVENDOR_HANDSTEADY_RAW_JOINTS_EXTENSION_NAME});
+    PFN_xrVoidFunction fn = nullptr;
+    REQUIRE(xrGetInstanceProcAddr(app.instance, "xrLocateRawHandJointsNOVENDOR", &fn) == XR_SUCCESS);
+    const auto locate_raw = reinterpret_cast<PFN_xrLocateRawHandJointsNOVENDOR>(fn);
+    double raw_err = 0.0, filtered_diff = 0.0;
+    long n = 0;
+    for (int i = 0; i < 120; ++i) {
+      const XrTime T = app.frame();
+      for (XrHandEXT hand : {XR_HAND_LEFT_EXT, XR_HAND_RIGHT_EXT}) {
+        const Pose noisy = interpolate_pose(f.noisy_series[hand - 1], track_time(f, T));
+        const Joints filtered = app.locate(hand, app.local, T);
+        std::array<XrHandJointLocationEXT, XR_HAND_JOINT_COUNT_EXT> loc{};
+        XrHandJointLocationsEXT out{XR_TYPE_HAND_JOINT_LOCATIONS_EXT, nullptr, XR_FALSE, XR_HAND_JOINT_COUNT_EXT, loc.data()};
+        const XrHandJointsLocateInfoEXT li{XR_TYPE_HAND_JOINTS_LOCATE_INFO_EXT, nullptr, app.local, T};
+        REQUIRE(locate_raw(app.trackers[hand - 1], &li, &out) == XR_SUCCESS);
+        REQUIRE(out.isActive == XR_TRUE);
+        for (int k = 0; k < kJointCount; ++k) {
+          if (!joint_tracked(noisy, k)) continue;
+          const Eigen::Vector3d raw = xr::to_eigen(loc[k].pose.position);
+          raw_err = std::max(raw_err, (raw - noisy.row(k).transpose()).norm());
+          filtered_diff += (raw - xr::to_eigen(filtered.loc[k].pose.position)).norm();
+          ++n;
+        }
+      }
+    }
+    CHECK(n > 100 * 40);
+    CHECK(raw_err < 1e-5);  // exactly the runtime's replay of the noisy track
+    if (mode == "denoise") CHECK(filtered_diff / static_cast<double>(n) > 1e-4);  // and the layer did filter
+    else CHECK(filtered_diff / static_cast<double>(n) < 1e-7);
+    app.shutdown();
+  }
+  CHECK(read_file(log).find("VALID_ERROR") == std::string::npos);
 }
 
 TEST_CASE("denoise: the same time in several base spaces gives the same world positions") {

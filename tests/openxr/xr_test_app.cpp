@@ -93,9 +93,10 @@ PFN proc(XrInstance instance, const char* name) {
 }
 }  // namespace
 
-App::App(bool hand_tracking) {
+App::App(bool hand_tracking, const std::vector<const char*>& extra_extensions) {
   std::vector<const char*> ext = {XR_MND_HEADLESS_EXTENSION_NAME};
   if (hand_tracking) ext.push_back(XR_EXT_HAND_TRACKING_EXTENSION_NAME);
+  ext.insert(ext.end(), extra_extensions.begin(), extra_extensions.end());
   XrInstanceCreateInfo ci{};
   ci.type = XR_TYPE_INSTANCE_CREATE_INFO;
   std::snprintf(ci.applicationInfo.applicationName, XR_MAX_APPLICATION_NAME_SIZE, "handsteady-test");

@@ -53,7 +53,8 @@ class App {
  public:
   // Creates instance (XR_EXT_hand_tracking unless hand_tracking is false, XR_MND_headless),
   // system, session (run to FOCUSED), LOCAL/STAGE/VIEW spaces and both hand trackers.
-  explicit App(bool hand_tracking = true);
+  // extra_extensions are enabled as well (e.g. the layer's raw-joints extension).
+  explicit App(bool hand_tracking = true, const std::vector<const char*>& extra_extensions = {});
   ~App();
   App(const App&) = delete;
   App& operator=(const App&) = delete;
