@@ -169,13 +169,16 @@ const Models& models() {
 // sample after a reset) once an input sample at or after it arrives, and with zero offsets
 // answers the frame of the latest tick. (Same accumulation and tolerance as the adapter,
 // so that samples a rounding error before a tick agree.)
+// The model grid: t0 + k / 30 s from the first sample; a tick up to 1 us after a row
+// counts as at the row (rounded CSV times).
 struct Ticks {
-  double tick = std::nan("");
+  double t0 = std::nan("");
+  long k = 0;
   double at(double t) {
     const double p = 1.0 / 30.0;
-    if (std::isnan(tick)) tick = t;
-    while (tick + p <= t + 1e-9 * p) tick += p;
-    return tick;
+    if (std::isnan(t0)) t0 = t;
+    while (t0 + static_cast<double>(k + 1) * p <= t + 1e-6) ++k;
+    return t0 + static_cast<double>(k) * p;
   }
 };
 

@@ -455,3 +455,31 @@ TEST_CASE("PoseFilter adapter: resampling onto the model grid, horizons, gaps") 
   cc.padding = hs::StgaePadding::Centred;
   CHECK_THROWS_AS(hs::make_stgae_filter(small_model(cc, 2), 0.0), std::invalid_argument);
 }
+
+TEST_CASE("PoseFilter adapter: on-grid input with rounded timestamps gives each tick's frame at its row") {
+  // Tracks store times to 9 decimals, so k/30 s arrives up to 0.5 ns before the exact tick.
+  // Each row must still be answered with its own model frame (not a one-period
+  // extrapolation from the previous one, the bug this guards against).
+  const auto c = small_causal();
+  const auto model = small_model(c, 3);
+  const double dt = 1.0 / c.rate_hz;
+  constexpr int kFrames = 90;
+  const auto src = hs::synthetic_hand_input(c, kFrames, 21);
+  auto f = hs::make_stgae_filter(model, 0.0);
+  hs::StgaeStream<float> ref(model->net);
+  hs::Pose out;
+  int exact = 0;
+  for (int t = 0; t < kFrames; ++t) {
+    const double ts = std::round((1234.5678 + t * dt) * 1e9) * 1e-9;
+    REQUIRE(f->push(ts, pose_at(src, t)));
+    ref.push(std::span<const float>(src.data() + static_cast<size_t>(t * 78), 78));
+    f->estimate(ts, out);
+    double worst = 0.0;
+    for (int j = 0; j < hs::kJointCount; ++j)
+      for (int k = 0; k < 3; ++k)
+        worst = std::max(worst, std::abs(out(j, k) - static_cast<double>(ref.denoised()[static_cast<size_t>(3 * j + k)])));
+    CHECK(worst < 1e-5);
+    exact += worst < 1e-5 ? 1 : 0;
+  }
+  CHECK(exact == kFrames);
+}

@@ -61,17 +61,24 @@ class StgaeFilter final : public PoseFilter {
     }
     last_valid_t_ = t;
     if (!have_grid_) {
-      tick_ = t;  // the grid starts at the first sample
+      grid_t0_ = t;  // the grid starts at the first sample
+      ticks_ = 0;
+      tick_ = t;
       push_frame(cur_, t);
       prev_ = cur_;
       prev_t_ = t;
       have_grid_ = true;
       return true;
     }
-    // Every grid tick in (prev_t_, t] gets the linearly interpolated frame.
-    const double eps = 1e-9 * period_;
-    while (tick_ + period_ <= t + eps) {
-      tick_ += period_;
+    // Every grid tick in (prev_t_, t] gets the linearly interpolated frame. Ticks are
+    // t0 + k * period (no accumulated rounding), and a tick up to 1 us after t counts as
+    // at t: input on the model grid, written with rounded times (e.g. 1/30 s to 9
+    // decimals), must give the tick's frame now, not one row later (which would turn every
+    // answer into a one-period extrapolation).
+    constexpr double kTickToleranceS = 1e-6;
+    while (grid_t0_ + static_cast<double>(ticks_ + 1) * period_ <= t + kTickToleranceS) {
+      ++ticks_;
+      tick_ = grid_t0_ + static_cast<double>(ticks_) * period_;
       const double a = std::clamp((tick_ - prev_t_) / (t - prev_t_), 0.0, 1.0);
       for (int j = 0; j < n_; ++j) {
         const auto o = static_cast<size_t>(3 * j);
@@ -146,7 +153,8 @@ class StgaeFilter final : public PoseFilter {
   std::vector<float> prev_, cur_, interp_, den_prev_, path_;
   std::array<double, kJointCount> seen_t_{};
   bool have_grid_ = false, have_model_frame_ = false, have_den_prev_ = false;
-  double tick_ = 0.0, prev_t_ = 0.0, model_t_ = 0.0;
+  double grid_t0_ = 0.0, tick_ = 0.0, prev_t_ = 0.0, model_t_ = 0.0;
+  long ticks_ = 0;
   double last_t_ = std::numeric_limits<double>::quiet_NaN();
   double last_valid_t_ = 0.0;
 };
