@@ -1,0 +1,271 @@
+#include "handsteady_render/plot.hpp"
+
+#include "handsteady_render/context.hpp"
+#include "handsteady_render/renderer.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace hs::render {
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+struct Range {
+  double lo = 0.0, hi = 1.0;
+};
+
+void check_plot(const TrajectoryPlot& plot) {
+  for (const PlotSeries& s : plot.series) {
+    if (s.t.size() != s.xyz.size()) {
+      throw std::invalid_argument("plot series '" + s.label + "': " + std::to_string(s.t.size()) + " times but " +
+                                  std::to_string(s.xyz.size()) + " points");
+    }
+  }
+}
+
+// 1, 2 or 5 times a power of ten, near range / target.
+double nice_step(double range, int target) {
+  const double raw = range / target;
+  const double p = std::pow(10.0, std::floor(std::log10(raw)));
+  const double m = raw / p;
+  return (m < 1.5 ? 1.0 : m < 3.5 ? 2.0 : m < 7.5 ? 5.0 : 10.0) * p;
+}
+
+std::vector<double> ticks(Range r, double step) {
+  std::vector<double> out;
+  const double eps = step * 1e-6;
+  for (double k = std::ceil((r.lo - eps) / step); k * step <= r.hi + eps; k += 1.0) {
+    out.push_back(k * step);
+  }
+  return out;
+}
+
+std::string tick_label(double v, double step) {
+  const int decimals = std::max(0, static_cast<int>(-std::floor(std::log10(step) + 1e-9)));
+  std::string s = fmt::format("{:.{}f}", v, decimals);
+  if (s.find_first_not_of("-0.") == std::string::npos && s.front() == '-') {
+    s.erase(0, 1);  // "-0.0" -> "0.0"
+  }
+  return s;
+}
+
+Range padded(double lo, double hi, double fallback_lo, double fallback_hi, double pad_fraction) {
+  if (!(lo <= hi)) {
+    return {fallback_lo, fallback_hi};
+  }
+  if (hi - lo < 1e-12) {
+    const double half = std::max(std::abs(lo) * 0.05, 1e-3);
+    return {lo - half, hi + half};
+  }
+  const double pad = (hi - lo) * pad_fraction;
+  return {lo - pad, hi + pad};
+}
+
+}  // namespace
+
+PlotSeries joint_series(std::string label, Color color, const std::vector<double>& t,
+                        const std::vector<hs::Pose>& poses, int joint, double time_offset_s) {
+  if (t.size() != poses.size()) {
+    throw std::invalid_argument("joint_series '" + label + "': " + std::to_string(t.size()) + " times but " +
+                                std::to_string(poses.size()) + " poses");
+  }
+  if (joint < 0 || joint >= kJointCount) {
+    throw std::invalid_argument("joint_series '" + label + "': joint " + std::to_string(joint) + " out of range");
+  }
+  PlotSeries s;
+  s.label = std::move(label);
+  s.color = color;
+  s.t.reserve(t.size());
+  s.xyz.reserve(t.size());
+  for (size_t i = 0; i < t.size(); ++i) {
+    s.t.push_back(t[i] + time_offset_s);
+    const hs::Pose& p = poses[i];
+    s.xyz.emplace_back(p(joint, 0), p(joint, 1), p(joint, 2));
+  }
+  return s;
+}
+
+void draw_trajectory_plot(Renderer& r, const Viewport& vp, const TrajectoryPlot& plot) {
+  check_plot(plot);
+  r.set_viewport(vp);
+  r.clear_viewport(plot.background);
+  const float W = static_cast<float>(vp.width), H = static_cast<float>(vp.height);
+  const float u = std::clamp(std::min(W / 1200.0f, H / 900.0f), 0.35f, 4.0f);  // layout unit
+  const Color ink = Color::rgb8(30, 30, 30), grid = Color::rgb8(225, 225, 225);
+  const TextStyle title_style{22.0f * u, ink, 2.0f * u, Align::Center, VAlign::Top};
+  const TextStyle legend_style{14.0f * u, ink, 1.4f * u, Align::Left, VAlign::Middle};
+  TextStyle tick_style{12.0f * u, ink, 1.2f * u, Align::Right, VAlign::Middle};
+  const TextStyle label_style{15.0f * u, ink, 1.4f * u, Align::Center, VAlign::Middle, 90.0f};
+  const double scale = plot.millimetres ? 1000.0 : 1.0;
+  const std::string unit = plot.millimetres ? "mm" : "m";
+
+  // Data ranges: time over every series, each axis over its finite values.
+  double t_lo = kNaN, t_hi = kNaN;
+  double v_lo[3] = {kNaN, kNaN, kNaN}, v_hi[3] = {kNaN, kNaN, kNaN};
+  for (const PlotSeries& s : plot.series) {
+    for (size_t i = 0; i < s.t.size(); ++i) {
+      if (std::isfinite(s.t[i])) {
+        t_lo = std::isnan(t_lo) ? s.t[i] : std::min(t_lo, s.t[i]);
+        t_hi = std::isnan(t_hi) ? s.t[i] : std::max(t_hi, s.t[i]);
+      }
+      for (int k = 0; k < 3; ++k) {
+        const double v = s.xyz[i][k] * scale;
+        if (std::isfinite(v)) {
+          v_lo[k] = std::isnan(v_lo[k]) ? v : std::min(v_lo[k], v);
+          v_hi[k] = std::isnan(v_hi[k]) ? v : std::max(v_hi[k], v);
+        }
+      }
+    }
+  }
+  const Range tr = padded(t_lo, t_hi, 0.0, 1.0, 0.0);
+  const double t_step = nice_step(tr.hi - tr.lo, 8);
+  Range vr[3];
+  double v_step[3];
+  std::vector<std::string> labels[3];
+  float label_w = 0.0f;
+  for (int k = 0; k < 3; ++k) {
+    vr[k] = padded(v_lo[k], v_hi[k], -1.0, 1.0, 0.06);
+    v_step[k] = nice_step(vr[k].hi - vr[k].lo, 4);
+    for (double v : ticks(vr[k], v_step[k])) {
+      labels[k].push_back(tick_label(v, v_step[k]));
+      label_w = std::max(label_w, r.measure_text(labels[k].back(), {0.0f, 0.0f}, tick_style).width);
+    }
+  }
+
+  // Layout (overlay pixels of vp).
+  float y = 12.0f * u;
+  if (!plot.title.empty()) {
+    const Box b = r.text(plot.title, {0.5f * W, y}, title_style);
+    y = b.y + b.height + 10.0f * u;
+  }
+  // Legend: a line sample and the label per series, centred rows.
+  {
+    const float sample = 28.0f * u, space = 8.0f * u, between = 26.0f * u, row_h = 24.0f * u;
+    std::vector<float> widths;
+    for (const PlotSeries& s : plot.series) {
+      widths.push_back(sample + space + r.measure_text(s.label, {0.0f, 0.0f}, legend_style).width);
+    }
+    size_t i = 0;
+    while (i < plot.series.size()) {
+      size_t j = i;
+      float row_w = 0.0f;
+      while (j < plot.series.size() && (j == i || row_w + between + widths[j] <= W - 20.0f * u)) {
+        row_w += (j == i ? 0.0f : between) + widths[j];
+        ++j;
+      }
+      float x = 0.5f * (W - row_w);
+      const float cy = y + 0.5f * row_h;
+      for (size_t k = i; k < j; ++k) {
+        const PlotSeries& s = plot.series[k];
+        r.line2d({x, cy}, {x + sample, cy}, s.color, std::max(s.width_px, 2.0f) * u);
+        r.text(s.label, {x + sample + space, cy}, legend_style);
+        x += widths[k] + between;
+      }
+      y += row_h;
+      i = j;
+    }
+  }
+  const float tick_len = 5.0f * u;
+  const float left = std::round(8.0f * u + label_style.size_px * 1.6f + 8.0f * u + label_w + tick_len + 4.0f * u);
+  const float right = std::round(W - 24.0f * u);
+  const float top = std::round(y + 8.0f * u);
+  const float bottom_margin = 12.0f * u + tick_style.size_px + 14.0f * u + label_style.size_px + 10.0f * u;
+  const float gap = std::round(16.0f * u);
+  const float sub_h = std::max(1.0f, std::floor((H - top - bottom_margin - 2.0f * gap) / 3.0f));
+  const float plot_w = std::max(1.0f, right - left);
+  const std::vector<double> t_ticks = ticks(tr, t_step);
+
+  for (int k = 0; k < 3; ++k) {
+    const float y0 = top + static_cast<float>(k) * (sub_h + gap);
+    auto px = [&](double t) { return left + static_cast<float>((t - tr.lo) / (tr.hi - tr.lo)) * plot_w; };
+    auto py = [&](double v) {
+      return y0 + (1.0f - static_cast<float>((v - vr[k].lo) / (vr[k].hi - vr[k].lo))) * sub_h;
+    };
+    // Grid.
+    for (double t : t_ticks) {
+      r.line2d({px(t), y0}, {px(t), y0 + sub_h}, grid, 1.0f * u);
+    }
+    const std::vector<double> v_ticks = ticks(vr[k], v_step[k]);
+    for (double v : v_ticks) {
+      r.line2d({left, py(v)}, {left + plot_w, py(v)}, grid, 1.0f * u);
+    }
+    // Series, clipped to the subplot (its own viewport: coordinates relative to it).
+    const Viewport clip{vp.x + static_cast<int>(left), vp.y + static_cast<int>(y0), static_cast<int>(plot_w),
+                        static_cast<int>(sub_h)};
+    if (clip.width > 0 && clip.height > 0 && clip.x + clip.width <= vp.x + vp.width &&
+        clip.y + clip.height <= vp.y + vp.height) {
+      r.set_viewport(clip);
+      for (const PlotSeries& s : plot.series) {
+        std::vector<glm::vec2> run;
+        auto flush = [&] {
+          if (run.size() == 1) {
+            r.disc2d(run[0], s.width_px * u, s.color);
+          } else {
+            r.polyline2d(run, s.color, s.width_px * u);
+          }
+          run.clear();
+        };
+        for (size_t i = 0; i < s.t.size(); ++i) {
+          const double v = s.xyz[i][k] * scale;
+          if (!std::isfinite(v) || !std::isfinite(s.t[i])) {
+            flush();
+            continue;
+          }
+          run.emplace_back(px(s.t[i]) - left, py(v) - y0);
+        }
+        flush();
+      }
+      r.set_viewport(vp);
+    }
+    // Frame, ticks, numbers, axis label.
+    r.stroke_rect(left, y0, plot_w, sub_h, ink, 1.5f * u);
+    for (size_t i = 0; i < v_ticks.size(); ++i) {
+      const float yy = py(v_ticks[i]);
+      r.line2d({left - tick_len, yy}, {left, yy}, ink, 1.2f * u);
+      r.text(labels[k][i], {left - tick_len - 4.0f * u, yy}, tick_style);
+    }
+    for (double t : t_ticks) {
+      r.line2d({px(t), y0 + sub_h}, {px(t), y0 + sub_h + tick_len}, ink, 1.2f * u);
+    }
+    r.text(plot.axis_names[static_cast<size_t>(k)] + " (" + unit + ")",
+           {8.0f * u + 0.8f * label_style.size_px, y0 + 0.5f * sub_h}, label_style);
+    if (k == 2) {
+      TextStyle ts = tick_style;
+      ts.align = Align::Center;
+      ts.valign = VAlign::Top;
+      for (double t : t_ticks) {
+        r.text(tick_label(t, t_step), {px(t), y0 + sub_h + tick_len + 6.0f * u}, ts);
+      }
+      TextStyle xs = label_style;
+      xs.angle_deg = 0.0f;
+      xs.valign = VAlign::Top;
+      r.text(plot.time_label, {left + 0.5f * plot_w, y0 + sub_h + tick_len + 6.0f * u + ts.size_px + 12.0f * u}, xs);
+    }
+  }
+}
+
+Image render_trajectory_plot(const TrajectoryPlot& plot) {
+  check_plot(plot);
+  auto ctx = create_offscreen_context(plot.width, plot.height);
+  Image img;
+  {
+    Renderer r(*ctx);
+    r.begin_frame(plot.background);
+    draw_trajectory_plot(r, r.full_frame(), plot);
+    img = r.read_pixels();
+  }
+  return img;
+}
+
+void write_trajectory_plot(const std::filesystem::path& path, const TrajectoryPlot& plot) {
+  write_png(path, render_trajectory_plot(plot));
+}
+
+}  // namespace hs::render

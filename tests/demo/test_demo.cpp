@@ -1,0 +1,134 @@
+// The AR handwriting demo end to end, headless: a synthetic writing hand (tremor and
+// tracker noise) replayed by the replay runtime, through the real loader and the
+// HandSteady layer, into handsteady_demo, which draws the raw and HandSteady panels.
+#include "handsteady_render/image.hpp"
+#include "test_support.hpp"
+
+#include <doctest/doctest.h>
+#include <nlohmann/json.hpp>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// Writes a short writing track (text "HS", 60 Hz) and its clean twin and strokes.
+fs::path make_track(const fs::path& dir, const std::string& tremor) {
+  fs::create_directories(dir);
+  const fs::path track = dir / "hw.csv";
+  REQUIRE(hs::test::run_cli("synth-handwriting --text HS --tremor " + tremor + " --seed 3 --out \"" + track.string() +
+                            "\" > /dev/null") == 0);
+  return track;
+}
+
+// Runs the demo app on `track` with the layer configured by `layer_env` (empty: the
+// layer is not on the loader's path). Returns the exit status.
+int run_demo(const fs::path& track, const fs::path& out, const std::string& layer_env) {
+  const fs::path stem = track.parent_path() / track.stem();
+  std::string cmd = "env -u DISPLAY -u WAYLAND_DISPLAY -u XR_ENABLE_API_LAYERS -u HANDSTEADY_MODE -u HANDSTEADY_METHOD"
+                    " -u HANDSTEADY_CONFIG -u HANDSTEADY_MODEL";
+  cmd += std::string(" XR_RUNTIME_JSON=\"") + HS_REPLAY_RUNTIME_JSON + "\"";
+  cmd += " HANDSTEADY_SHIM_TRACK=\"" + track.string() + "\" HANDSTEADY_SHIM_CLOCK=sim:11.111111 HANDSTEADY_SHIM_FUTURE=hold";
+  cmd += layer_env.empty() ? " XR_API_LAYER_PATH=/nonexistent" : std::string(" XR_API_LAYER_PATH=\"") + HS_LAYER_DIR + "\" " + layer_env;
+  cmd += std::string(" \"") + HS_DEMO_PATH + "\" --headless --panel-width 320 --panel-height 240 --out \"" + out.string() +
+         "\" --strokes \"" + stem.string() + "_strokes.csv\" --truth \"" + stem.string() + "_clean.csv\" > \"" +
+         (out.string() + ".log") + "\" 2>&1";
+  const int rc = std::system(cmd.c_str());
+  return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+}
+
+nlohmann::json read_json(const fs::path& p) {
+  std::ifstream in(p);
+  REQUIRE(in.good());
+  return nlohmann::json::parse(in);
+}
+
+// Pixels of the image within `tol` of colour c.
+int count_color(const hs::render::Image& img, hs::render::Rgba8 c, int x0, int x1, int tol = 40) {
+  int n = 0;
+  for (int y = 0; y < img.height; ++y)
+    for (int x = x0; x < x1; ++x) {
+      const auto p = img.at(x, y);
+      if (std::abs(p.r - c.r) + std::abs(p.g - c.g) + std::abs(p.b - c.b) <= tol) ++n;
+    }
+  return n;
+}
+
+}  // namespace
+
+TEST_CASE("demo: the HandSteady panel's ink is closer to the font strokes and less jerky than the raw panel's") {
+  const fs::path dir = hs::test::temp_dir("demo_oneeuro");
+  const fs::path track = make_track(dir, "parkinson");
+  // One Euro through the layer: the classical engine, whose effect on tremor is known.
+  REQUIRE(run_demo(track, dir / "out", "HANDSTEADY_MODE=denoise HANDSTEADY_METHOD=oneeuro") == 0);
+  const auto j = read_json(dir / "out" / "summary.json");
+  const auto& raw = j["panels"]["raw"];
+  const auto& hs = j["panels"]["handsteady"];
+  MESSAGE("raw: " << raw.dump());
+  MESSAGE("HandSteady: " << hs.dump());
+  CHECK(raw["ink"]["strokes"].get<int>() >= 1);
+  CHECK(hs["ink"]["strokes"].get<int>() >= 1);
+  CHECK(raw["ink"]["font_strokes"].get<int>() == 4);  // futural: H has 3 strokes, S one
+  const double raw_d = raw["ink"]["mean_distance_mm"].get<double>(), hs_d = hs["ink"]["mean_distance_mm"].get<double>();
+  const double raw_j = raw["ink"]["jerk_rms_m_s3"].get<double>(), hs_j = hs["ink"]["jerk_rms_m_s3"].get<double>();
+  CHECK(hs_d < 0.9 * raw_d);
+  CHECK(hs_j < 0.6 * raw_j);
+  CHECK(raw["ink"]["latency_ms"].get<double>() > 5.0);  // the runtime holds its newest sample: late
+
+  // The composite: two panels, each with its ink colour, written as PNG.
+  const hs::render::Image img = hs::render::read_png(dir / "out" / "composite.png");
+  CHECK(img.width == 2 * 320 + 3 * 8);
+  CHECK(img.height == 240 + 2 * 8);
+  const int half = img.width / 2;
+  CHECK(count_color(img, {220, 60, 50, 255}, 0, half) > 200);      // raw ink, left
+  CHECK(count_color(img, {30, 110, 220, 255}, half, img.width) > 200);  // HandSteady ink, right
+  CHECK(count_color(img, {30, 110, 220, 255}, 0, half) == 0);
+  CHECK(fs::exists(dir / "out" / "index_tip_plot.png"));
+  CHECK(fs::exists(dir / "out" / "raw_seen.csv"));
+  CHECK(fs::exists(dir / "out" / "handsteady_seen.csv"));
+  fs::remove_all(dir);
+}
+
+TEST_CASE("demo: with the shipped model (the layer's default) it runs end to end") {
+  const fs::path dir = hs::test::temp_dir("demo_stgae");
+  const fs::path track = make_track(dir, "parkinson");
+  REQUIRE(run_demo(track, dir / "out", "HANDSTEADY_MODE=denoise") == 0);
+  const auto j = read_json(dir / "out" / "summary.json");
+  MESSAGE("raw: " << j["panels"]["raw"].dump());
+  MESSAGE("HandSteady (shipped model): " << j["panels"]["handsteady"].dump());
+  CHECK(j["panels"]["handsteady"]["ink"]["strokes"].get<int>() >= 1);
+  CHECK(j["panels"]["handsteady"]["frames"].get<int>() > 300);
+  std::ifstream log(dir / "out.log");
+  const std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
+  CHECK(text.find("raw side channel on") != std::string::npos);
+  fs::remove_all(dir);
+}
+
+TEST_CASE("demo: without the layer the app shows what it receives, in one panel") {
+  const fs::path dir = hs::test::temp_dir("demo_nolayer");
+  const fs::path track = make_track(dir, "none");
+  REQUIRE(run_demo(track, dir / "out", "") == 0);
+  const auto j = read_json(dir / "out" / "summary.json");
+  CHECK(j["panels"].size() == 1);
+  CHECK(j["panels"]["app"]["ink"]["strokes"].get<int>() >= 1);
+  const hs::render::Image img = hs::render::read_png(dir / "out" / "composite.png");
+  CHECK(img.width == 320 + 2 * 8);
+  fs::remove_all(dir);
+}
+
+TEST_CASE("demo: bad input is reported with the file's name") {
+  const fs::path dir = hs::test::temp_dir("demo_bad");
+  fs::create_directories(dir);
+  std::ofstream(dir / "bad.csv") << "stroke,x,y,z\n0,1,2\n";
+  const std::string cmd = std::string("\"") + HS_DEMO_PATH + "\" --headless --strokes \"" + (dir / "bad.csv").string() +
+                          "\" > \"" + (dir / "log.txt").string() + "\" 2>&1";
+  const int rc = std::system(cmd.c_str());
+  CHECK((WIFEXITED(rc) ? WEXITSTATUS(rc) : -1) == 1);
+  std::ifstream log(dir / "log.txt");
+  const std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
+  CHECK(text.find("bad.csv") != std::string::npos);
+  fs::remove_all(dir);
+}
