@@ -1,31 +1,69 @@
 #!/usr/bin/env bash
-# The main job: installs missing Debian packages, builds, and runs
-# synthesise/import -> corrupt -> filter -> eval, leaving everything in out/demo/.
-# With ../shared/data present it also runs the FPHA subject 5 comparison table.
+# The main job: the AR handwriting demo, headless, end to end. Installs missing Debian
+# packages, builds, then:
+#   handsteady synth-handwriting  (text "ISMAR", Parkinsonian tremor + tracker noise)
+#   -> replay runtime (XR_RUNTIME_JSON) -> Khronos loader -> HandSteady layer
+#   -> handsteady_demo (OpenXR app; OSMesa offscreen, or a window with --window)
+# once with the shipped Multi-STGAE model (the layer's default) and once with One Euro,
+# leaving composite PNGs, frames, trajectory plots and a metrics summary in out/demo/.
+# With ../shared/data present the hand pose comes from a real HoloLens 2 recording and
+# the FPHA subject 5 table is computed too (HS_DEMO_FPHA=0 skips it).
+# Usage: scripts/demo.sh [extra handsteady_demo options, e.g. --window]
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 cd "$root"
 scripts/deps.sh build
-cmake -S . -B build/release -DCMAKE_BUILD_TYPE=Release -DHS_BUILD_TESTS=OFF >/dev/null
-cmake --build build/release -j"$(nproc)" --target handsteady
-hs=build/release/cli/handsteady
+cmake -S . -B build/release -DCMAKE_BUILD_TYPE=Release -DHS_BUILD_TESTS=OFF -DHS_BUILD_TRAINING=OFF >/dev/null
+cmake --build build/release -j"$(nproc)" --target handsteady XrApiLayer_handsteady handsteady_replay_runtime handsteady_demo
+b=build/release
+hs=$b/cli/handsteady
 out=${HS_DEMO_OUT:-out/demo}
-mkdir -p "$out"
-$hs synth --out "$out/clean.csv" --seconds 30 --seed 1
-$hs corrupt --in "$out/clean.csv" --out "$out/noisy.csv" --preset tracker --seed 1
-cmp=()
-for m in raw oneeuro desp kalman stgae; do  # stgae: the shipped model in models/
-  $hs filter --in "$out/noisy.csv" --out "$out/$m.csv" --method "$m"
-  echo "== $m (denoise) =="
-  $hs eval --truth "$out/clean.csv" --in "$out/$m.csv"
-  cmp+=(--in "$m=$out/$m.csv")
-done
-echo "== synthetic track, tracker preset: all methods =="
-$hs compare --truth "$out/clean.csv" "${cmp[@]}" | tee "$out/summary.md"
+rm -rf "$out" && mkdir -p "$out"
 data=${HS_SHARED_DATA:-$root/../shared/data}
-if [ -d "$data/fpha/Subject_5" ]; then
-  scripts/fpha_table.sh "$hs" "$data" "$out/fpha"
+
+# 1. The writing hand: clean, noisy (tremor then tracker noise) and the font strokes.
+pose=()
+hl2=$data/hololens2/20240216_202836897.csv
+if [ -f "$hl2" ]; then
+  $hs import --format mrtk --in "$hl2" --out "$out/hl2_pose_source.csv" >/dev/null
+  pose=(--pose-from "$out/hl2_pose_source.csv")
 else
-  echo "demo: $data/fpha/Subject_5 not found; skipping the FPHA table"
+  echo "demo: $hl2 not found; the parametric hand writes"
 fi
-echo "demo: outputs in $out"
+$hs synth-handwriting --text "ISMAR" --tremor parkinson --seed 1 --out "$out/handwriting.csv" "${pose[@]}"
+
+# 2. The OpenXR app through the real loader, the layer (its raw side channel gives the
+#    raw panel) and the replay runtime at 90 Hz, answering the newest sample (no
+#    runtime-side prediction), like a tracker without extrapolation.
+export XR_RUNTIME_JSON=$root/$b/runtime_shim/handsteady_replay_runtime.json
+export XR_API_LAYER_PATH=$root/$b/plugin
+export HANDSTEADY_SHIM_TRACK=$root/$out/handwriting.csv HANDSTEADY_SHIM_CLOCK=sim:11.111111 HANDSTEADY_SHIM_FUTURE=hold
+unset XR_ENABLE_API_LAYERS HANDSTEADY_CONFIG HANDSTEADY_MODEL
+# A frame PNG every second; with ffmpeg installed every 3rd frame, made into a 30 fps video.
+every=90
+if command -v ffmpeg >/dev/null; then every=3; fi
+for method in stgae oneeuro; do
+  echo "== handsteady_demo, layer method $method (denoise) =="
+  HANDSTEADY_MODE=denoise HANDSTEADY_METHOD=$method $b/sample_app/app/handsteady_demo --out "$out/$method" \
+    --strokes "$out/handwriting_strokes.csv" --truth "$out/handwriting_clean.csv" --frames-every $every "$@"
+  if [ $every = 3 ]; then
+    ffmpeg -loglevel error -y -framerate 30 -pattern_type glob -i "$out/$method/frames/frame_*.png" \
+      -vf "pad=ceil(iw/2)*2:ceil(ih/2)*2,format=yuv420p" "$out/$method/demo.mp4" || echo "demo: ffmpeg failed; no video"
+  fi
+done
+{
+  echo "# Handwriting demo: \"ISMAR\", Parkinsonian tremor + tracker noise, replayed at 90 Hz"
+  echo
+  for method in stgae oneeuro; do
+    echo "## HandSteady layer with \`$method\` (denoise)"
+    echo
+    cat "$out/$method/summary.md"
+    echo
+  done
+} > "$out/summary.md"
+
+if [ -d "$data/fpha/Subject_5" ] && [ "${HS_DEMO_FPHA:-1}" != 0 ]; then
+  echo "== FPHA subject 5 table (README) =="
+  scripts/fpha_table.sh "$hs" "$data" "$out/fpha" | tee "$out/fpha_table.md"
+fi
+echo "demo: outputs in $out: summary.md, {stgae,oneeuro}/composite.png, {stgae,oneeuro}/index_tip_plot.png, frames"
