@@ -28,6 +28,25 @@ TEST_CASE("synthetic hand pose has adult bone lengths that articulation does not
   CHECK(dist(c, Joint::Wrist, Joint::LittleTip) == doctest::Approx(1.2 * dist(a, Joint::Wrist, Joint::LittleTip)));
 }
 
+TEST_CASE("synthetic hand pose is a right hand, palm down: thumb towards -X, fingers curl towards -Y") {
+  HandArticulation open, fist;
+  fist.curl = {1.2, 1.5, 1.5, 1.5, 1.5};
+  const Pose a = synth_hand_pose(open), b = synth_hand_pose(fist);
+  CHECK(a(idx(Joint::ThumbTip), 0) < a(idx(Joint::IndexProximal), 0));
+  CHECK(a(idx(Joint::IndexProximal), 0) < a(idx(Joint::LittleProximal), 0));
+  for (Joint tip : {Joint::IndexTip, Joint::MiddleTip, Joint::RingTip, Joint::LittleTip, Joint::ThumbTip}) {
+    CAPTURE(idx(tip));
+    CHECK(b(idx(tip), 1) < a(idx(tip), 1) - 0.01);  // curling goes towards the palm side
+  }
+  // A right hand: (index -> little) x (wrist -> middle) is the back of the hand, and the
+  // fingers curl away from it (a left hand's would curl towards it).
+  const Eigen::Vector3d across = (a.row(idx(Joint::LittleProximal)) - a.row(idx(Joint::IndexProximal))).transpose();
+  const Eigen::Vector3d along = (a.row(idx(Joint::MiddleProximal)) - a.row(idx(Joint::Wrist))).transpose();
+  const Eigen::Vector3d back = across.cross(along);
+  CHECK(back.y() > 0.0);
+  CHECK((b.row(idx(Joint::MiddleTip)) - a.row(idx(Joint::MiddleTip))).dot(back.transpose()) < 0.0);
+}
+
 TEST_CASE("synthetic motion is smooth, seeded, and the left hand mirrors the right") {
   SynthMotionParams prm;
   prm.duration_s = 4.0;

@@ -39,7 +39,7 @@ Pose synth_hand_pose(const HandArticulation& art, const HandShapeParams& shape) 
     Eigen::Matrix3d r = rot_y(-splay);
     Eigen::Vector3d pos = knuckle;
     for (int k = 0; k < 3; ++k) {
-      r = r * rot_x(curl * (k == 0 ? 0.8 : 1.0));
+      r = r * rot_x(-curl * (k == 0 ? 0.8 : 1.0));  // negative about X: towards -Y, the palm
       pos += r * Eigen::Vector3d(0, 0, -lengths[f][k]);
       p.row(base + 2 + k) = (s * pos).transpose();
     }
@@ -51,7 +51,7 @@ Pose synth_hand_pose(const HandArticulation& art, const HandShapeParams& shape) 
   Eigen::Matrix3d r = rot_y(0.9) * Eigen::AngleAxisd(-0.5, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   Eigen::Vector3d pos = cmc;
   for (int k = 0; k < 3; ++k) {
-    r = r * rot_x(art.curl[0] * 0.7);
+    r = r * rot_x(-art.curl[0] * 0.7);
     pos += r * Eigen::Vector3d(0, 0, -thumb_len[k]);
     p.row(idx(Joint::ThumbProximal) + k) = (s * pos).transpose();
   }

@@ -28,14 +28,9 @@ bool fully_tracked(const Pose& p) { return tracked_joint_count(p) == kJointCount
 
 // ---- parametric hand -------------------------------------------------------------------
 
-// synth_hand_pose's fingers curl towards +Y while its thumb and index sit at -X: the
-// geometry of a left hand, palm up. Mirrored in Y it is a right hand, palm down (-Y),
-// fingers along -Z, thumb towards -X: the hand frame used here.
-Pose parametric_right_hand(const HandArticulation& art) {
-  Pose p = synth_hand_pose(art);
-  p.col(1) *= -1.0;
-  return p;
-}
+// synth_hand_pose: a right hand, palm down (-Y), fingers along -Z, thumb towards -X: the
+// hand frame used here.
+Pose parametric_right_hand(const HandArticulation& art) { return synth_hand_pose(art); }
 
 // Finger curls of the writing hand: index flexed as in a pinch (about 130 deg summed over
 // its three joints), middle, ring and little curled into the palm.
@@ -225,7 +220,7 @@ PinchPoses parametric_pinch_poses() {
   PinchPoses out;
   out.pinched = to_hand_frame(parametric_hand_with_thumb_tip_at(index_tip + 0.006 * u));
   out.open = to_hand_frame(parametric_hand_with_thumb_tip_at(index_tip + 0.060 * u));
-  out.source = "parametric (synth_hand_pose mirrored to a right hand; thumb turned and slid to pinch)";
+  out.source = "parametric (synth_hand_pose; thumb turned and slid to pinch)";
   return out;
 }
 
