@@ -23,6 +23,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <memory>
@@ -33,12 +34,16 @@
 #include <unordered_map>
 #include <vector>
 
+#include <dlfcn.h>
 #include <unistd.h>
 
 namespace hs::layer {
 namespace {
 
 constexpr const char* kLayerName = "XR_APILAYER_NOVENDOR_handsteady";
+#ifndef HS_LAYER_ISA
+#define HS_LAYER_ISA "baseline"  // the compiler's default instruction set
+#endif
 
 // ---------------------------------------------------------------- logging
 
@@ -550,7 +555,8 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateApiLayerInstance(const XrInstanceCreateInfo
       log(LogLevel::Warn, "runtime lacks core space functions: passing everything through");
       d->config.mode = Mode::Off;
     }
-    log(LogLevel::Info, fmt::format("mode {}, engine {}, horizon {} ms, hand tracking {}", mode_name(d->config.mode),
+    log(LogLevel::Info, fmt::format("{} build, mode {}, engine {}, horizon {} ms, hand tracking {}", HS_LAYER_ISA,
+                                    mode_name(d->config.mode),
                                     engine_name(d->config),
                                     static_cast<double>(d->config.horizon_ns) * 1e-6,
                                     d->hand_tracking ? "enabled by the app" : "not enabled by the app"));
@@ -571,6 +577,37 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateApiLayerInstance(const XrInstanceCreateInfo
 }  // namespace
 }  // namespace hs::layer
 
+#ifdef HS_LAYER_V3_FILE
+namespace hs::layer {
+namespace {
+using NegotiateFn = XrResult(XRAPI_PTR*)(const XrNegotiateLoaderInfo*, const char*, XrNegotiateApiLayerRequest*);
+std::atomic<bool> g_logged_variant{false};
+
+// This baseline build hands the loader over to the x86-64-v3 build beside it (AVX2/FMA:
+// the Multi-STGAE step about 1.8x faster) when the CPU has that level. Only this file's
+// negotiate function runs before the check, in code built for any x86-64; the other
+// build is loaded only on a CPU that can run it. HANDSTEADY_ISA=baseline keeps this one.
+NegotiateFn faster_build() noexcept {
+  const char* isa = std::getenv("HANDSTEADY_ISA");
+  if (isa && std::string_view(isa) == "baseline") return nullptr;
+  __builtin_cpu_init();
+  if (!__builtin_cpu_supports("x86-64-v3")) return nullptr;
+  Dl_info info{};
+  if (dladdr(reinterpret_cast<const void*>(&faster_build), &info) == 0 || !info.dli_fname) return nullptr;
+  const std::string path = (std::filesystem::path(info.dli_fname).parent_path() / HS_LAYER_V3_FILE).string();
+  void* lib = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
+  if (!lib) {
+    const char* err = dlerror();
+    log_once(g_logged_variant, LogLevel::Warn,
+             fmt::format("x86-64-v3 build not loaded ({}): using the baseline build", err ? err : path));
+    return nullptr;
+  }
+  return reinterpret_cast<NegotiateFn>(dlsym(lib, "xrNegotiateLoaderApiLayerInterface"));
+}
+}  // namespace
+}  // namespace hs::layer
+#endif
+
 extern "C" __attribute__((visibility("default"))) XrResult XRAPI_CALL xrNegotiateLoaderApiLayerInterface(
     const XrNegotiateLoaderInfo* loaderInfo, const char* layerName, XrNegotiateApiLayerRequest* request) {
   if (!loaderInfo || !request || loaderInfo->structType != XR_LOADER_INTERFACE_STRUCT_LOADER_INFO ||
@@ -580,6 +617,10 @@ extern "C" __attribute__((visibility("default"))) XrResult XRAPI_CALL xrNegotiat
       request->structSize != sizeof(XrNegotiateApiLayerRequest))
     return XR_ERROR_INITIALIZATION_FAILED;
   if (layerName && std::strcmp(layerName, hs::layer::kLayerName) != 0) return XR_ERROR_INITIALIZATION_FAILED;
+#ifdef HS_LAYER_V3_FILE
+  static const auto faster = hs::layer::faster_build();
+  if (faster) return faster(loaderInfo, layerName, request);
+#endif
   if (loaderInfo->minInterfaceVersion > XR_CURRENT_LOADER_API_LAYER_VERSION ||
       loaderInfo->maxInterfaceVersion < XR_CURRENT_LOADER_API_LAYER_VERSION)
     return XR_ERROR_INITIALIZATION_FAILED;

@@ -195,6 +195,49 @@ TEST_CASE("raw-joints extension: the runtime's joints beside the filtered ones")
   CHECK(read_file(log).find("VALID_ERROR") == std::string::npos);
 }
 
+namespace {
+bool v3_build_mapped() {
+  std::ifstream maps("/proc/self/maps");
+  std::string line;
+  while (std::getline(maps, line))
+    if (line.find("libXrApiLayer_handsteady_v3") != std::string::npos) return true;
+  return false;
+}
+}  // namespace
+
+TEST_CASE("the layer hands over to its x86-64-v3 build on a CPU that has it") {
+#ifndef HS_LAYER_V3_BUILT
+  MESSAGE("skipped: this build has no x86-64-v3 layer (HS_ARCH set or not x86-64)");
+#else
+  const TrackFiles f = make_tracks("isa", 3.0);
+  reset_env(f);
+  unset_env("HANDSTEADY_ISA");
+  enable_layers({kLayer});
+  App app;
+  const Errors e = run_and_measure(app, f, app.local, 250, [](XrTime T) { return T; });
+  for (int h = 0; h < 2; ++h) CHECK(e.mean(h) < 0.9 * e.raw_mean(h));
+  app.shutdown();
+  __builtin_cpu_init();
+  CHECK(v3_build_mapped() == (__builtin_cpu_supports("x86-64-v3") != 0));
+#endif
+}
+
+TEST_CASE("the layer's baseline build runs when asked (HANDSTEADY_ISA=baseline)") {
+  const TrackFiles f = make_tracks("isa_base", 3.0);
+  if (v3_build_mapped()) {
+    MESSAGE("skipped: the v3 build is already loaded in this process (layers stay loaded)");
+    return;
+  }
+  reset_env(f);
+  set_env("HANDSTEADY_ISA", "baseline");
+  enable_layers({kLayer});
+  App app;
+  const Errors e = run_and_measure(app, f, app.local, 250, [](XrTime T) { return T; });
+  for (int h = 0; h < 2; ++h) CHECK(e.mean(h) < 0.9 * e.raw_mean(h));
+  app.shutdown();
+  CHECK_FALSE(v3_build_mapped());
+}
+
 TEST_CASE("denoise: the same time in several base spaces gives the same world positions") {
   const TrackFiles f = make_tracks("spaces", 2.0);
   reset_env(f);
