@@ -2,6 +2,7 @@
 // (docs/IMPORTERS.md#bvh).
 #include "handsteady/import.hpp"
 
+#include "handsteady/text_fields.hpp"
 #include "import_common.hpp"
 
 #include <fmt/format.h>
@@ -52,7 +53,7 @@ class HierarchyParser {
   }
   double number() {
     const Token& t = next("a number");
-    return detail::parse_double(t.text, {source_, t.line, std::string(t.text)});
+    return parse_finite_number(t.text, {source_, t.line, std::string(t.text)});
   }
   Eigen::Vector3d offset() {
     Eigen::Vector3d v;
@@ -89,7 +90,7 @@ class HierarchyParser {
         if (have_channels) fail(t, "second CHANNELS in one joint");
         const Token& n = next("a channel count");
         int count = 0;
-        const double v = detail::parse_double(n.text, {source_, n.line, std::string(n.text)});
+        const double v = parse_finite_number(n.text, {source_, n.line, std::string(n.text)});
         if (v < 0 || v > 6 || v != std::floor(v)) fail(n, "channel count must be 0..6");
         count = static_cast<int>(v);
         auto& j = out.joints[static_cast<size_t>(self)];
@@ -192,14 +193,14 @@ BvhData parse_bvh(std::istream& in, const std::string& source_name) {
   };
   auto w = next_words("'Frames: N'");
   if (w.size() != 2 || w[0] != "Frames:") throw InputError({source_name, i, "Frames"}, "expected 'Frames: N'");
-  const double frames_d = detail::parse_double(w[1], {source_name, i, "Frames"});
+  const double frames_d = parse_finite_number(w[1], {source_name, i, "Frames"});
   if (frames_d < 0 || frames_d != std::floor(frames_d) || frames_d > 1e8)
     throw InputError({source_name, i, "Frames"}, fmt::format("'{}' is not a frame count", w[1]));
   const auto frames = static_cast<size_t>(frames_d);
   w = next_words("'Frame Time: seconds'");
   if (w.size() != 3 || w[0] != "Frame" || w[1] != "Time:")
     throw InputError({source_name, i, "Frame Time"}, "expected 'Frame Time: seconds'");
-  bvh.frame_time = detail::parse_double(w[2], {source_name, i, "Frame Time"});
+  bvh.frame_time = parse_finite_number(w[2], {source_name, i, "Frame Time"});
   if (!(bvh.frame_time > 0.0)) throw InputError({source_name, i, "Frame Time"}, "frame time must be positive");
 
   bvh.frames.reserve(frames);
@@ -213,7 +214,7 @@ BvhData parse_bvh(std::istream& in, const std::string& source_name) {
                                                              bvh.channel_count));
     std::vector<double> f(values.size());
     for (size_t c = 0; c < values.size(); ++c)
-      f[c] = detail::parse_double(values[c], {source_name, i + 1, fmt::format("channel {}", c + 1)});
+      f[c] = parse_finite_number(values[c], {source_name, i + 1, fmt::format("channel {}", c + 1)});
     bvh.frames.push_back(std::move(f));
   }
   if (bvh.frames.size() != frames)

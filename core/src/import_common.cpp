@@ -58,18 +58,6 @@ std::vector<std::string_view> split_ws(std::string_view line) {
   return out;
 }
 
-double parse_double(std::string_view text, const SourceLocation& where) {
-  double v = 0.0;
-  const char* first = text.data();
-  const char* last = text.data() + text.size();
-  if (first != last && *first == '+') ++first;
-  auto [ptr, ec] = std::from_chars(first, last, v);
-  if (text.empty() || ec != std::errc() || ptr != last)
-    throw InputError(where, fmt::format("'{}' is not a number", text));
-  if (!std::isfinite(v)) throw InputError(where, fmt::format("'{}' is not a finite number", text));
-  return v;
-}
-
 }  // namespace hs::detail
 
 namespace hs {

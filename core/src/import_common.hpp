@@ -27,7 +27,4 @@ std::string joint_list(const std::vector<int>& joints);
 std::vector<std::string_view> split_ws(std::string_view line);
 std::string_view trim(std::string_view s);
 
-// A finite double or InputError at `where`.
-double parse_double(std::string_view text, const SourceLocation& where);
-
 }  // namespace hs::detail

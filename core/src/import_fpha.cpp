@@ -1,6 +1,7 @@
 // FPHA skeleton.txt -> right-hand track (docs/IMPORTERS.md#fpha).
 #include "handsteady/import.hpp"
 
+#include "handsteady/text_fields.hpp"
 #include "import_common.hpp"
 
 #include <fmt/format.h>
@@ -61,7 +62,7 @@ Track parse_fpha(std::istream& in, const std::string& source_name) {
       throw InputError({source_name, line_no, ""},
                        fmt::format("{} fields, expected {} (frame_index x0 y0 z0 ... x20 y20 z20)", fields.size(),
                                    1 + 3 * kFphaJoints));
-    const double frame = detail::parse_double(fields[0], {source_name, line_no, "frame_index"});
+    const double frame = parse_finite_number(fields[0], {source_name, line_no, "frame_index"});
     if (frame < 0.0 || frame != std::floor(frame))
       throw InputError({source_name, line_no, "frame_index"}, fmt::format("'{}' is not a frame number", fields[0]));
     if (frame <= last_index)
@@ -75,7 +76,7 @@ Track parse_fpha(std::istream& in, const std::string& source_name) {
       double v[3];
       for (size_t a = 0; a < 3; ++a) {
         const size_t f = 1 + 3 * j + a;
-        v[a] = detail::parse_double(fields[f], {source_name, line_no, fpha_field_name(f)});
+        v[a] = parse_finite_number(fields[f], {source_name, line_no, fpha_field_name(f)});
       }
       // Camera axes (+Y down, +Z forward) to OpenXR (+Y up, -Z forward): a 180 degree
       // rotation about X, which keeps the frame right-handed.

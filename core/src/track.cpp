@@ -1,5 +1,7 @@
 #include "handsteady/track.hpp"
 
+#include "handsteady/text_fields.hpp"
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -17,40 +19,7 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kAbsurdMetres = 1000.0;  // a coordinate beyond 1 km is not a hand
 constexpr int kColumns = 2 + 3 * kJointCount;
 
-std::string_view trim(std::string_view s) {
-  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
-  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
-  return s;
-}
-
-std::vector<std::string_view> split_commas(std::string_view line) {
-  std::vector<std::string_view> out;
-  size_t start = 0;
-  for (;;) {
-    size_t comma = line.find(',', start);
-    if (comma == std::string_view::npos) {
-      out.push_back(trim(line.substr(start)));
-      return out;
-    }
-    out.push_back(trim(line.substr(start, comma - start)));
-    start = comma + 1;
-  }
-}
-
 bool is_missing(std::string_view f) { return f.empty() || f == "nan" || f == "NaN" || f == "NAN"; }
-
-// Parses a finite double; throws naming the column otherwise.
-double parse_number(std::string_view f, const SourceLocation& where) {
-  double v = 0.0;
-  const char* first = f.data();
-  const char* last = f.data() + f.size();
-  if (!f.empty() && *first == '+') ++first;
-  auto [ptr, ec] = std::from_chars(first, last, v);
-  if (ec != std::errc() || ptr != last || f.empty())
-    throw InputError(where, "'" + std::string(f) + "' is not a number");
-  if (!std::isfinite(v)) throw InputError(where, "'" + std::string(f) + "' is not a finite number");
-  return v;
-}
 
 }  // namespace
 
@@ -76,21 +45,9 @@ int tracked_joint_count(const Pose& p) {
   return n;
 }
 
-std::optional<std::string> Track::meta(std::string_view key) const {
-  std::optional<std::string> value;
-  for (const auto& line : header_lines) {
-    std::string_view l(line);
-    if (l.size() > key.size() && l.substr(0, key.size()) == key && l[key.size()] == ':')
-      value = std::string(trim(l.substr(key.size() + 1)));
-  }
-  return value;
-}
+std::optional<std::string> Track::meta(std::string_view key) const { return meta_value(header_lines, key); }
 
-void Track::set_meta(std::string_view key, std::string_view value) {
-  const std::string prefix = std::string(key) + ":";
-  std::erase_if(header_lines, [&](const std::string& l) { return l.rfind(prefix, 0) == 0; });
-  header_lines.push_back(prefix + " " + std::string(value));
-}
+void Track::set_meta(std::string_view key, std::string_view value) { set_meta_value(header_lines, key, value); }
 
 void Track::add_comment(std::string_view text) { header_lines.emplace_back(text); }
 
@@ -128,11 +85,9 @@ Track parse_track_csv(std::istream& in, const std::string& source_name) {
   double last_t[2] = {-std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
   while (std::getline(in, line)) {
     ++line_no;
-    std::string_view l = trim(line);
-    if (!l.empty() && l.front() == '#') {
-      l.remove_prefix(1);
-      if (!l.empty() && l.front() == ' ') l.remove_prefix(1);
-      track.header_lines.emplace_back(l);
+    const std::string_view l = trim_field(line);
+    if (const auto comment = comment_text(l)) {
+      track.header_lines.emplace_back(*comment);
       continue;
     }
     if (l.empty()) continue;
@@ -154,7 +109,7 @@ Track parse_track_csv(std::istream& in, const std::string& source_name) {
                        fmt::format("row has {} fields, expected {}", fields.size(), kColumns));
     TrackRow row;
     if (is_missing(fields[0])) throw InputError({source_name, line_no, "t"}, "time is missing");
-    row.t = parse_number(fields[0], {source_name, line_no, "t"});
+    row.t = parse_finite_number(fields[0], {source_name, line_no, "t"});
     auto hand = parse_hand(fields[1]);
     if (!hand)
       throw InputError({source_name, line_no, "hand"},
@@ -175,7 +130,7 @@ Track parse_track_csv(std::istream& in, const std::string& source_name) {
           continue;
         }
         const SourceLocation where{source_name, line_no, columns[c]};
-        const double v = parse_number(fields[c], where);
+        const double v = parse_finite_number(fields[c], where);
         if (std::abs(v) > kAbsurdMetres)
           throw InputError(where, fmt::format("{} m is not a plausible hand position", v));
         row.pos(j, a) = v;

@@ -1,6 +1,7 @@
 // The font strokes CSV ("stroke,x,y,z", '#' metadata lines): docs/HANDWRITING.md.
 #include "handsteady/error.hpp"
 #include "handsteady/handwriting.hpp"
+#include "handsteady/text_fields.hpp"
 
 #include <fmt/format.h>
 
@@ -18,30 +19,8 @@ namespace {
 constexpr std::array<std::string_view, 4> kColumns = {"stroke", "x", "y", "z"};
 constexpr double kAbsurdMetres = 1000.0;  // same bound as the track reader
 
-std::string_view trim(std::string_view s) {
-  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
-  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
-  return s;
-}
-
-std::vector<std::string_view> split_commas(std::string_view line) {
-  std::vector<std::string_view> out;
-  size_t start = 0;
-  for (;;) {
-    const size_t comma = line.find(',', start);
-    out.push_back(trim(line.substr(start, comma == std::string_view::npos ? std::string_view::npos : comma - start)));
-    if (comma == std::string_view::npos) return out;
-    start = comma + 1;
-  }
-}
-
 double parse_coordinate(std::string_view f, const SourceLocation& where) {
-  double v = 0.0;
-  const char* first = f.data() + (!f.empty() && f.front() == '+' ? 1 : 0);
-  const char* last = f.data() + f.size();
-  const auto [ptr, ec] = std::from_chars(first, last, v);
-  if (f.empty() || ec != std::errc() || ptr != last) throw InputError(where, fmt::format("'{}' is not a number", f));
-  if (!std::isfinite(v)) throw InputError(where, fmt::format("'{}' is not a finite number", f));
+  const double v = parse_finite_number(f, where);
   if (std::abs(v) > kAbsurdMetres) throw InputError(where, fmt::format("{} m is not a plausible position", v));
   return v;
 }
@@ -65,21 +44,9 @@ void check_header(const std::vector<std::string_view>& fields, const SourceLocat
 
 }  // namespace
 
-std::optional<std::string> StrokeSet::meta(std::string_view key) const {
-  std::optional<std::string> value;
-  for (const auto& line : header_lines) {
-    const std::string_view l(line);
-    if (l.size() > key.size() && l.substr(0, key.size()) == key && l[key.size()] == ':')
-      value = std::string(trim(l.substr(key.size() + 1)));
-  }
-  return value;
-}
+std::optional<std::string> StrokeSet::meta(std::string_view key) const { return meta_value(header_lines, key); }
 
-void StrokeSet::set_meta(std::string_view key, std::string_view value) {
-  const std::string prefix = std::string(key) + ":";
-  std::erase_if(header_lines, [&](const std::string& l) { return l.rfind(prefix, 0) == 0; });
-  header_lines.push_back(prefix + " " + std::string(value));
-}
+void StrokeSet::set_meta(std::string_view key, std::string_view value) { set_meta_value(header_lines, key, value); }
 
 StrokeSet parse_strokes_csv(std::istream& in, const std::string& source_name) {
   StrokeSet set;
@@ -88,11 +55,9 @@ StrokeSet parse_strokes_csv(std::istream& in, const std::string& source_name) {
   bool have_header = false;
   while (std::getline(in, line)) {
     ++line_no;
-    std::string_view l = trim(line);
-    if (!l.empty() && l.front() == '#') {
-      l.remove_prefix(1);
-      if (!l.empty() && l.front() == ' ') l.remove_prefix(1);
-      set.header_lines.emplace_back(l);
+    const std::string_view l = trim_field(line);
+    if (const auto comment = comment_text(l)) {
+      set.header_lines.emplace_back(*comment);
       continue;
     }
     if (l.empty()) continue;
