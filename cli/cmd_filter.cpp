@@ -45,6 +45,7 @@ struct FilterOptions {
   // Multi-STGAE.
   std::string model_file;  // empty: hs::default_model_path()
   bool offline = false;
+  int phases = 0;  // interleaved streams; 0 = input rate / model rate
   std::shared_ptr<const StgaeModel> model;  // loaded once by run_filter (prepare_stgae)
   std::string model_source;                 // the file it came from
 };
@@ -104,13 +105,14 @@ void prepare_stgae(FilterOptions& o) {
   }
 }
 
-std::unique_ptr<PoseFilter> make_stgae(const FilterOptions& o) { return make_stgae_filter(o.model, o.horizon_ms * 1e-3); }
+std::unique_ptr<PoseFilter> make_stgae(const FilterOptions& o) { return make_stgae_filter(o.model, o.horizon_ms * 1e-3, o.phases); }
 
 std::string describe_stgae(const FilterOptions& o) {
   const StgaeConfig& c = o.model->config;
-  return fmt::format("model={} rate_hz={} window={} horizon_frames={} padding={} mode={}", o.model_source, c.rate_hz,
-                     c.window, c.predict ? c.horizon : 0,
-                     c.padding == StgaePadding::Causal ? "causal" : "centred", o.offline ? "offline" : "streaming");
+  return fmt::format("model={} rate_hz={} window={} horizon_frames={} padding={} mode={} phases={}", o.model_source,
+                     c.rate_hz, c.window, c.predict ? c.horizon : 0,
+                     c.padding == StgaePadding::Causal ? "causal" : "centred", o.offline ? "offline" : "streaming",
+                     o.phases == 0 ? std::string("auto") : std::to_string(o.phases));
 }
 
 const std::array<MethodEntry, 5> kMethods = {
@@ -260,6 +262,9 @@ void run_filter(const FilterOptions& options) {
   if (o.offline && o.horizon_ms != 0.0) {
     throw InputError({"", 0, "--horizon-ms"}, "--offline denoises a whole recording; it does not predict (use --horizon-ms 0)");
   }
+  if (o.phases != 0 && method.name != "stgae") {
+    throw InputError({"", 0, "--phases"}, fmt::format("--phases is for --method stgae, not {}", method.name));
+  }
   if (!o.model_file.empty() && method.name != "stgae") {
     throw InputError({"", 0, "--model"}, fmt::format("--model is for --method stgae, not {}", method.name));
   }
@@ -315,6 +320,9 @@ void setup_filter(CLI::App& app) {
   sub->add_option("--model", o->model_file,
                   fmt::format("Multi-STGAE model (.hsm); default: ${}, else the shipped {}", kModelEnvVar,
                               kDefaultModelFile));
+  sub->add_option("--phases", o->phases,
+                  "Multi-STGAE: interleaved streams for input faster than the model (0 = input rate / model rate)")
+      ->capture_default_str();
   sub->add_flag("--offline", o->offline,
                 "Multi-STGAE: run a centred model in window mode over the whole recording (not causal)");
   sub->callback([o] { run_filter(*o); });

@@ -204,7 +204,7 @@ TEST_CASE("stgae streams at 20, 30, 90 and 120 Hz and on irregular timestamps; r
   fs::remove_all(dir);
 }
 
-TEST_CASE("stgae with a zero-offset model reproduces the ramp at the latest model tick, at any input rate") {
+TEST_CASE("stgae with one stream and a zero-offset model reproduces the ramp at the latest model tick, at any input rate") {
   const fs::path dir = hs::test::temp_dir("cli_stgae_zero");
   for (const double rate : {20.0, 45.0, 90.0, 120.0, 0.0}) {
     CAPTURE(rate);
@@ -212,7 +212,7 @@ TEST_CASE("stgae with a zero-offset model reproduces the ramp at the latest mode
     // Left: lost for 0.5 s from t = 1 s (longer than kStgaeGapResetS: the grid restarts).
     hs::write_track_csv(ramp_track(times, 1.0, 1.5), dir / "in.csv");
     const hs::Track in = hs::read_track_csv(dir / "in.csv");
-    const hs::Track out = run_ok(in, dir, "--method stgae --model " + quoted(models().zero_causal));
+    const hs::Track out = run_ok(in, dir, "--method stgae --phases 1 --model " + quoted(models().zero_causal));
     REQUIRE(out.rows.size() == in.rows.size());
     Ticks left_ticks, right_ticks;
     bool left_lost = false;
@@ -237,6 +237,31 @@ TEST_CASE("stgae with a zero-offset model reproduces the ramp at the latest mode
     // Not the trivial answer: the held tick lags the input on a moving hand.
     if (rate != 20.0 && rate != 0.0) CHECK((out.rows[21].pos - in.rows[21].pos).cwiseAbs().maxCoeff() > 1e-3);
   }
+  fs::remove_all(dir);
+}
+
+TEST_CASE("stgae at 90 Hz (3 streams by default) with a zero-offset model: each row from its own tick and the one before") {
+  // Every 90 Hz row is a tick of one of the three 30 Hz streams. With zero offsets the
+  // answer is (ramp(t) + 0.5 ramp(t - 1/90 s)) / 1.5 = ramp(t - 1/270 s) once all streams
+  // have a window of history; one stream would hold ramp(latest 30 Hz tick) instead.
+  const fs::path dir = hs::test::temp_dir("cli_stgae_phases");
+  hs::write_track_csv(ramp_track(regular_times(90.0, 2.0)), dir / "in.csv");
+  const hs::Track in = hs::read_track_csv(dir / "in.csv");
+  const hs::Track out = run_ok(in, dir, "--method stgae --model " + quoted(models().zero_causal));
+  REQUIRE(out.rows.size() == in.rows.size());
+  CHECK(out.meta("filter").value_or("").find("phases=auto") != std::string::npos);
+  double max_err = 0.0;
+  long n = 0;
+  for (size_t i = 0; i < in.rows.size(); ++i) {
+    const hs::TrackRow& a = in.rows[i];
+    if (a.t - in.rows.front().t < 1.0) continue;  // warm-up
+    const bool left = a.hand == Hand::Left;
+    const Pose expected = left ? ramp_pose(kLeftBase, kLeftV, a.t - 1.0 / 270.0) : ramp_pose(kRightBase, kRightV, a.t - 1.0 / 270.0);
+    max_err = std::max(max_err, (out.rows[i].pos - expected).cwiseAbs().maxCoeff());
+    ++n;
+  }
+  CHECK(n > 150);
+  CHECK(max_err < 1e-4);
   fs::remove_all(dir);
 }
 
@@ -291,6 +316,12 @@ TEST_CASE("stgae model errors: bad, missing or centred model files exit with sta
                    "--method stgae --offline --model " + quoted(models().random_causal), dir / "err.txt") == 2);
   CHECK(filter_cli(dir / "in.csv", dir / "out.csv", "--method oneeuro --model " + quoted(models().random_causal)) == 2);
   CHECK(filter_cli(dir / "in.csv", dir / "out.csv", "--method kalman --offline") == 2);
+  // --phases: Multi-STGAE only, 0..4.
+  CHECK(filter_cli(dir / "in.csv", dir / "out.csv", "--method kalman --phases 2", dir / "err.txt") == 2);
+  CHECK(slurp(dir / "err.txt").find("--phases") != std::string::npos);
+  CHECK(filter_cli(dir / "in.csv", dir / "out.csv",
+                   "--method stgae --phases 9 --model " + quoted(models().random_causal), dir / "err.txt") == 2);
+  CHECK(slurp(dir / "err.txt").find("phases") != std::string::npos);
   fs::remove_all(dir);
 }
 

@@ -414,8 +414,8 @@ TEST_CASE("PoseFilter adapter: resampling onto the model grid, horizons, gaps") 
   CHECK_FALSE(f->push(1.0, pose_at(src, 0)));  // time must increase
   CHECK(f->last_time() == doctest::Approx(1.0 + 11 * dt));
 
-  // At twice the model rate, every other input sample lands on the grid.
-  auto g = hs::make_stgae_filter(model, 0.0);
+  // At twice the model rate with one stream, every other input sample lands on the grid.
+  auto g = hs::make_stgae_filter(model, 0.0, 1);
   for (int t = 0; t < 6; ++t) {
     g->push(1.0 + t * dt, pose_at(src, t));
     if (t + 1 < 6) {
@@ -451,6 +451,8 @@ TEST_CASE("PoseFilter adapter: resampling onto the model grid, horizons, gaps") 
   e->estimate(0.0, a);
   CHECK_FALSE(hs::any_joint_tracked(a));
   CHECK_THROWS_AS(hs::make_stgae_filter(model, -0.1), std::invalid_argument);
+  CHECK_THROWS_AS(hs::make_stgae_filter(model, 0.0, -1), std::invalid_argument);
+  CHECK_THROWS_AS(hs::make_stgae_filter(model, 0.0, hs::kStgaeMaxPhases + 1), std::invalid_argument);
   auto cc = c;
   cc.padding = hs::StgaePadding::Centred;
   CHECK_THROWS_AS(hs::make_stgae_filter(small_model(cc, 2), 0.0), std::invalid_argument);
@@ -482,4 +484,63 @@ TEST_CASE("PoseFilter adapter: on-grid input with rounded timestamps gives each 
     exact += worst < 1e-5 ? 1 : 0;
   }
   CHECK(exact == kFrames);
+}
+
+TEST_CASE("PoseFilter adapter: input 3x the model rate runs 3 interleaved streams") {
+  // Row n goes to stream n % 3, so each stream sees frames one model period apart. The
+  // answer at row n: the newest stream's denoised frame, averaged at half weight with the
+  // previous stream's path one third of a period after its frame, once that stream has a
+  // window of history (before that, the newest warm stream alone, moved along its path).
+  const auto c = small_causal();
+  const auto model = small_model(c, 5);
+  const double dt = 1.0 / c.rate_hz / 3.0;
+  constexpr int kRows = 60;
+  const auto src = hs::synthetic_hand_input(c, kRows, 31);
+  auto f = hs::make_stgae_filter(model, 0.0, 3);
+  std::array<std::unique_ptr<hs::StgaeStream<float>>, 3> ref;
+  for (auto& r : ref) r = std::make_unique<hs::StgaeStream<float>>(model->net);
+  const auto along = [](const hs::StgaeStream<float>& r, size_t i, double s) {  // path at s periods
+    const auto d = static_cast<double>(r.denoised()[i]);
+    return d + s * (static_cast<double>(r.predicted(0)[i]) - d);
+  };
+  hs::Pose out;
+  int averaged = 0;
+  for (int n = 0; n < kRows; ++n) {
+    CAPTURE(n);
+    const double t = 2.0 + n * dt;
+    REQUIRE(f->push(t, pose_at(src, n)));
+    ref[static_cast<size_t>(n % 3)]->push(std::span<const float>(src.data() + static_cast<size_t>(n * 78), 78));
+    f->estimate(t, out);
+    const auto& now = *ref[static_cast<size_t>(n % 3)];
+    const auto& before = *ref[static_cast<size_t>((n + 2) % 3)];
+    const bool now_warm = n % 3 == 0 || now.frames_pushed() >= c.window;
+    const bool before_warm = n >= 1 && ((n + 2) % 3 == 0 || before.frames_pushed() >= c.window);
+    double worst = 0.0;
+    for (size_t i = 0; i < 78; ++i) {
+      double expect;
+      if (now_warm && before_warm) expect = (along(now, i, 0.0) + 0.5 * along(before, i, 1.0 / 3.0)) / 1.5;
+      else if (now_warm) expect = along(now, i, 0.0);
+      else expect = along(*ref[0], i, static_cast<double>(n % 3) / 3.0);  // stream 0, the only warm one
+      worst = std::max(worst, std::abs(out(static_cast<int>(i / 3), static_cast<int>(i % 3)) - expect));
+    }
+    CHECK(worst < 1e-5);
+    averaged += now_warm && before_warm ? 1 : 0;
+  }
+  CHECK(averaged > kRows / 2);
+
+  // Phases from the input rate: 30 Hz input keeps one stream (identical answers), 90 Hz
+  // input switches to three after the first rows and ends up answering like a filter
+  // started with three.
+  const auto run = [&](int phases, double step, int rows) {
+    auto g = hs::make_stgae_filter(model, 0.0, phases);
+    for (int n = 0; n < rows; ++n) g->push(2.0 + n * step, pose_at(src, n));
+    hs::Pose o;
+    g->estimate(2.0 + (rows - 1) * step, o);
+    return o;
+  };
+  CHECK((run(0, 3 * dt, 20) - run(1, 3 * dt, 20)).cwiseAbs().maxCoeff() == 0.0);
+  const hs::Pose a90 = run(0, dt, kRows), one90 = run(1, dt, kRows), three90 = run(3, dt, kRows);
+  MESSAGE("90 Hz input, auto vs 3 streams " << (a90 - three90).cwiseAbs().maxCoeff() << " m, vs 1 stream "
+                                            << (a90 - one90).cwiseAbs().maxCoeff() << " m");
+  CHECK((a90 - three90).cwiseAbs().maxCoeff() < 0.1 * (a90 - one90).cwiseAbs().maxCoeff());
 }

@@ -1,9 +1,17 @@
 // PoseFilter adapter over the streaming Multi-STGAE engine: irregular input -> model grid.
+//
+// Input faster than the model (a 90 Hz display over a 30 Hz model) is served by K
+// interleaved streams ("phases"): one sub-grid of period 1/(K * rate), tick m going to
+// stream m % K, so every stream still sees frames one model period apart, as in training,
+// and each input row is answered by a freshly denoised frame instead of a prediction up
+// to one model period ahead (whose error shows as a jump at every model tick).
 #include "handsteady/stgae_engine.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <stdexcept>
 #include <vector>
 
@@ -13,29 +21,37 @@ namespace {
 
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
+// The output of one stream: the path [denoised at t, predicted 1..DT periods later].
+struct PhaseOutput {
+  std::vector<float> path, den_prev;
+  double t = 0.0;
+  bool have = false, have_prev = false, warm = false;
+};
+
 class StgaeFilter final : public PoseFilter {
  public:
-  explicit StgaeFilter(std::shared_ptr<const StgaeModel> model) : model_(std::move(model)), stream_(model_->net) {
+  StgaeFilter(std::shared_ptr<const StgaeModel> model, int phases) : model_(std::move(model)), fixed_phases_(phases) {
     const auto& c = model_->config;
     n_ = c.joint_count();
     if (n_ != kJointCount) throw std::invalid_argument("the STGAE filter needs a 26-joint (xr26) model");
     period_ = 1.0 / c.rate_hz;
     dt_frames_ = c.predict ? c.horizon : 0;
+    warm_frames_ = c.window;
     const size_t fs = static_cast<size_t>(3 * n_);
     prev_.assign(fs, kNaN);
     cur_.assign(fs, kNaN);
     interp_.assign(fs, kNaN);
-    den_prev_.assign(fs, kNaN);
-    path_.assign(fs * static_cast<size_t>(dt_frames_ + 1), kNaN);
-    seen_t_.fill(-std::numeric_limits<double>::infinity());
+    for (int k = 0; k < kStgaeMaxPhases; ++k) {
+      streams_[static_cast<size_t>(k)] = std::make_unique<StgaeStream<float>>(model_->net);
+      auto& o = out_[static_cast<size_t>(k)];
+      o.path.assign(fs * static_cast<size_t>(dt_frames_ + 1), kNaN);
+      o.den_prev.assign(fs, kNaN);
+    }
     reset();
   }
 
   void reset() noexcept override {
-    stream_.reset();
-    have_grid_ = false;
-    have_model_frame_ = false;
-    have_den_prev_ = false;
+    restart_grid();
     last_t_ = std::numeric_limits<double>::quiet_NaN();
     last_valid_t_ = -std::numeric_limits<double>::infinity();
     seen_t_.fill(-std::numeric_limits<double>::infinity());
@@ -53,33 +69,32 @@ class StgaeFilter final : public PoseFilter {
     }
     if (!any) return true;  // hand lost in this frame: nothing to resample
     // A tracking gap longer than kStgaeGapResetS: the history no longer describes the hand.
-    if (have_grid_ && t - last_valid_t_ > kStgaeGapResetS) {
-      stream_.reset();
-      have_grid_ = false;
-      have_model_frame_ = false;
-      have_den_prev_ = false;
-    }
+    if (have_grid_ && t - last_valid_t_ > kStgaeGapResetS) restart_grid();
     last_valid_t_ = t;
     if (!have_grid_) {
-      grid_t0_ = t;  // the grid starts at the first sample
+      grid_t0_ = t;  // the grid starts at the first sample, with one phase until the rate is known
+      phases_ = fixed_phases_ > 0 ? fixed_phases_ : 1;
+      sub_period_ = period_ / phases_;
       ticks_ = 0;
-      tick_ = t;
-      push_frame(cur_, t);
+      first_t_ = t;
+      valid_rows_ = 1;
+      push_frame(0, cur_, t);
       prev_ = cur_;
       prev_t_ = t;
       have_grid_ = true;
       return true;
     }
-    // Every grid tick in (prev_t_, t] gets the linearly interpolated frame. Ticks are
-    // t0 + k * period (no accumulated rounding), and a tick up to 1 us after t counts as
-    // at t: input on the model grid, written with rounded times (e.g. 1/30 s to 9
-    // decimals), must give the tick's frame now, not one row later (which would turn every
-    // answer into a one-period extrapolation).
+    if (++valid_rows_ == kRateRows && fixed_phases_ == 0) choose_phases(t);
+    // Every sub-grid tick in (prev_t_, t] gets the linearly interpolated frame. Ticks are
+    // t0 + m * sub_period (no accumulated rounding), and a tick up to 1 us after t counts
+    // as at t: input on the grid, written with rounded times (e.g. 1/30 s to 9 decimals),
+    // must give the tick's frame now, not one row later (which would turn every answer
+    // into an extrapolation).
     constexpr double kTickToleranceS = 1e-6;
-    while (grid_t0_ + static_cast<double>(ticks_ + 1) * period_ <= t + kTickToleranceS) {
+    while (grid_t0_ + static_cast<double>(ticks_ + 1) * sub_period_ <= t + kTickToleranceS) {
       ++ticks_;
-      tick_ = grid_t0_ + static_cast<double>(ticks_) * period_;
-      const double a = std::clamp((tick_ - prev_t_) / (t - prev_t_), 0.0, 1.0);
+      const double tick = grid_t0_ + static_cast<double>(ticks_) * sub_period_;
+      const double a = std::clamp((tick - prev_t_) / (t - prev_t_), 0.0, 1.0);
       for (int j = 0; j < n_; ++j) {
         const auto o = static_cast<size_t>(3 * j);
         const bool pv = !std::isnan(prev_[o]), cv = !std::isnan(cur_[o]);
@@ -89,7 +104,7 @@ class StgaeFilter final : public PoseFilter {
           else interp_[i] = a < 0.5 ? prev_[i] : cur_[i];  // the nearer sample (NaN if it misses the joint)
         }
       }
-      push_frame(interp_, tick_);
+      push_frame(static_cast<int>(ticks_ % phases_), interp_, tick);
     }
     prev_ = cur_;
     prev_t_ = t;
@@ -98,62 +113,106 @@ class StgaeFilter final : public PoseFilter {
 
   void estimate(double t, Pose& out) const noexcept override {
     out = untracked_pose();
-    if (!have_model_frame_ || std::isnan(last_t_)) return;
+    if (latest_ < 0 || std::isnan(last_t_)) return;
     const double tq = std::max(t, last_t_);
-    // Position along the path [denoised at model_t_, predicted 0, 1, ...] in model periods.
-    const double s = (tq - model_t_) / period_;
-    const auto fs = static_cast<size_t>(3 * n_);
-    for (int j = 0; j < n_; ++j) {
-      if (last_t_ - seen_t_[static_cast<size_t>(j)] > kStgaeGapResetS) continue;  // expired / never seen
-      for (int c = 0; c < 3; ++c) {
-        const size_t i = static_cast<size_t>(3 * j + c);
-        double v;
-        if (dt_frames_ > 0) {
-          // Piecewise linear through the points; beyond the last one, its last segment continues.
-          const int last = dt_frames_;
-          const int seg = std::clamp(static_cast<int>(std::floor(s)), 0, last - 1);
-          const double f = s - seg;
-          const auto p0 = static_cast<double>(path_[static_cast<size_t>(seg) * fs + i]);
-          const auto p1 = static_cast<double>(path_[static_cast<size_t>(seg + 1) * fs + i]);
-          v = p0 + f * (p1 - p0);
-        } else {
-          // Denoise only: the trend of the last two denoised frames, at most one period ahead.
-          const auto d = static_cast<double>(path_[i]);
-          const double slope = have_den_prev_ ? d - static_cast<double>(den_prev_[i]) : 0.0;
-          v = d + std::min(s, 1.0) * slope;
-        }
-        out(j, c) = v;
+    // The newest stream's path, averaged with the one before it at half weight: the
+    // streams' residual errors are partly independent, so answering from one stream after
+    // the other alternates between them at the input rate; averaging two damps that at the
+    // cost of 1/K period of age in a third of the answer.
+    double wsum = 0.0;
+    for (int back = 0; back < std::min(2, phases_); ++back) {
+      const int k = (latest_ - back + phases_) % phases_;
+      const PhaseOutput& p = out_[static_cast<size_t>(k)];
+      if (back > 0 && !(p.have && p.warm)) continue;
+      const double w = back == 0 ? 1.0 : kOlderPhaseWeight;
+      for (int j = 0; j < n_; ++j) {
+        if (last_t_ - seen_t_[static_cast<size_t>(j)] > kStgaeGapResetS) continue;  // expired / never seen
+        for (int c = 0; c < 3; ++c) out(j, c) = (back == 0 ? 0.0 : out(j, c)) + w * path_at(p, tq, 3 * j + c);
       }
+      wsum += w;
     }
+    if (wsum > 1.0) out /= wsum;
+  }
+
+  // The value of coordinate i on a stream's path at time tq.
+  double path_at(const PhaseOutput& p, double tq, int coord) const noexcept {
+    const double s = (tq - p.t) / period_;  // model periods after its denoised frame
+    const auto fs = static_cast<size_t>(3 * n_);
+    const auto i = static_cast<size_t>(coord);
+    if (dt_frames_ > 0) {
+      // Piecewise linear through [denoised, predicted 0, 1, ...]; beyond the last point, its last segment continues.
+      const int seg = std::clamp(static_cast<int>(std::floor(s)), 0, dt_frames_ - 1);
+      const double f = s - seg;
+      const auto p0 = static_cast<double>(p.path[static_cast<size_t>(seg) * fs + i]);
+      const auto p1 = static_cast<double>(p.path[static_cast<size_t>(seg + 1) * fs + i]);
+      return p0 + f * (p1 - p0);
+    }
+    // Denoise only: the trend of the last two denoised frames, at most one period ahead.
+    const auto d = static_cast<double>(p.path[i]);
+    const double slope = p.have_prev ? d - static_cast<double>(p.den_prev[i]) : 0.0;
+    return d + std::min(s, 1.0) * slope;
   }
 
   double last_time() const noexcept override { return last_t_; }
 
  private:
-  void push_frame(const std::vector<float>& frame, double t) noexcept {
-    if (have_model_frame_) {
-      for (size_t i = 0; i < den_prev_.size(); ++i) den_prev_[i] = path_[i];
-      have_den_prev_ = true;
+  // Rows seen before the phase count is chosen from their mean interval.
+  static constexpr int kRateRows = 4;
+  static constexpr double kOlderPhaseWeight = 0.5;
+
+  void restart_grid() noexcept {
+    for (int k = 0; k < kStgaeMaxPhases; ++k) {
+      streams_[static_cast<size_t>(k)]->reset();
+      out_[static_cast<size_t>(k)].have = out_[static_cast<size_t>(k)].have_prev = out_[static_cast<size_t>(k)].warm = false;
     }
-    if (!stream_.push(std::span<const float>(frame.data(), frame.size()))) return;
-    const auto den = stream_.denoised();
-    std::copy(den.begin(), den.end(), path_.begin());
+    have_grid_ = false;
+    latest_ = -1;
+  }
+
+  // K = the input rate over the model rate, rounded, 1..kStgaeMaxPhases. Stream 0 keeps its
+  // history: its ticks t0 + k * period stay on the finer sub-grid (m = k * K).
+  void choose_phases(double t) noexcept {
+    const double mean_dt = (t - first_t_) / static_cast<double>(kRateRows - 1);
+    const int k = std::clamp(static_cast<int>(std::lround(period_ / mean_dt)), 1, kStgaeMaxPhases);
+    if (k == phases_ || ticks_ % phases_ != 0) return;  // (phases_ is 1 here, so always aligned)
+    ticks_ = ticks_ / phases_ * k;
+    phases_ = k;
+    sub_period_ = period_ / k;
+  }
+
+  void push_frame(int phase, const std::vector<float>& frame, double t) noexcept {
+    auto& stream = *streams_[static_cast<size_t>(phase)];
+    PhaseOutput& o = out_[static_cast<size_t>(phase)];
+    if (o.have) {
+      std::copy(o.path.begin(), o.path.begin() + static_cast<std::ptrdiff_t>(o.den_prev.size()), o.den_prev.begin());
+      o.have_prev = true;
+    }
+    if (!stream.push(std::span<const float>(frame.data(), frame.size()))) return;
+    const auto den = stream.denoised();
+    std::copy(den.begin(), den.end(), o.path.begin());
     for (int i = 0; i < dt_frames_; ++i) {
-      const auto p = stream_.predicted(i);
-      std::copy(p.begin(), p.end(), path_.begin() + static_cast<std::ptrdiff_t>((static_cast<size_t>(i) + 1) * p.size()));
+      const auto p = stream.predicted(i);
+      std::copy(p.begin(), p.end(), o.path.begin() + static_cast<std::ptrdiff_t>((static_cast<size_t>(i) + 1) * p.size()));
     }
-    model_t_ = t;
-    have_model_frame_ = true;
+    o.t = t;
+    o.have = true;
+    // Answer from the newest frame of a warmed-up stream; a phase started later (after the
+    // rate was known) serves once it has a window of history, so cold starts do not jitter.
+    const bool warm = stream.frames_pushed() >= warm_frames_ || phase == 0;
+    o.warm = warm;
+    if (warm || latest_ < 0) latest_ = phase;
   }
 
   std::shared_ptr<const StgaeModel> model_;
-  StgaeStream<float> stream_;
-  int n_ = 0, dt_frames_ = 0;
-  double period_ = 1.0 / 30.0;
-  std::vector<float> prev_, cur_, interp_, den_prev_, path_;
+  int fixed_phases_ = 0;  // 0 = from the input rate
+  std::array<std::unique_ptr<StgaeStream<float>>, kStgaeMaxPhases> streams_;
+  std::array<PhaseOutput, kStgaeMaxPhases> out_;
+  int n_ = 0, dt_frames_ = 0, warm_frames_ = 1, phases_ = 1, latest_ = -1, valid_rows_ = 0;
+  double period_ = 1.0 / 30.0, sub_period_ = 1.0 / 30.0;
+  std::vector<float> prev_, cur_, interp_;
   std::array<double, kJointCount> seen_t_{};
-  bool have_grid_ = false, have_model_frame_ = false, have_den_prev_ = false;
-  double grid_t0_ = 0.0, tick_ = 0.0, prev_t_ = 0.0, model_t_ = 0.0;
+  bool have_grid_ = false;
+  double grid_t0_ = 0.0, prev_t_ = 0.0, first_t_ = 0.0;
   long ticks_ = 0;
   double last_t_ = std::numeric_limits<double>::quiet_NaN();
   double last_valid_t_ = 0.0;
@@ -161,13 +220,16 @@ class StgaeFilter final : public PoseFilter {
 
 }  // namespace
 
-std::unique_ptr<PoseFilter> make_stgae_filter(std::shared_ptr<const StgaeModel> model, double horizon_s) {
+std::unique_ptr<PoseFilter> make_stgae_filter(std::shared_ptr<const StgaeModel> model, double horizon_s, int phases) {
   if (!model || !model->net) throw std::invalid_argument("make_stgae_filter: no model");
   if (model->config.padding != StgaePadding::Causal)
     throw std::invalid_argument("make_stgae_filter: streaming needs a causal model (this one is centred)");
   if (!(horizon_s >= 0.0) || !std::isfinite(horizon_s))
     throw std::invalid_argument("make_stgae_filter: the horizon must be >= 0 s");
-  return std::make_unique<StgaeFilter>(std::move(model));
+  if (phases < 0 || phases > kStgaeMaxPhases)
+    throw std::invalid_argument("make_stgae_filter: phases must be 0 (from the input rate) to " +
+                                std::to_string(kStgaeMaxPhases));
+  return std::make_unique<StgaeFilter>(std::move(model), phases);
 }
 
 }  // namespace hs

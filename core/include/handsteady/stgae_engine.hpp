@@ -85,12 +85,17 @@ extern template class StgaeStream<double>;
 
 // PoseFilter over a causal model: resamples irregular input (20-120 Hz) onto the model's
 // grid by linear interpolation (each time the input passes a grid tick it pushes the
-// interpolated frame), one stream per filter (= per hand). estimate(t): horizon 0 -> the
-// denoised latest model frame, moved by the linear trend to t; horizon > 0 -> the
-// predicted frames interpolated at t + horizon_s. The hand lost (no valid joint) for more
-// than kStgaeGapResetS resets the stream. Throws std::invalid_argument for a centred model
-// or a negative horizon.
+// interpolated frame). Input faster than the model runs K interleaved streams, each on
+// the model's rate but offset by 1/K period, so each row is answered by a frame denoised
+// at most 1/K period earlier (K = input rate / model rate rounded, measured over the first
+// rows after a (re)start, 1..kStgaeMaxPhases; `phases` > 0 fixes it). estimate(t):
+// horizon 0 -> the denoised latest model frame, moved by the linear trend to t; horizon >
+// 0 -> the predicted frames interpolated at t + horizon_s. The hand lost (no valid joint)
+// for more than kStgaeGapResetS resets the streams. Throws std::invalid_argument for a
+// centred model, a negative horizon or phases outside 0..kStgaeMaxPhases.
 inline constexpr double kStgaeGapResetS = 0.3;
-std::unique_ptr<PoseFilter> make_stgae_filter(std::shared_ptr<const StgaeModel> model, double horizon_s);
+inline constexpr int kStgaeMaxPhases = 4;
+std::unique_ptr<PoseFilter> make_stgae_filter(std::shared_ptr<const StgaeModel> model, double horizon_s,
+                                              int phases = 0);
 
 }  // namespace hs

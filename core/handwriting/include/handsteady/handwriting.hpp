@@ -142,7 +142,7 @@ double thumb_index_distance(const Pose& p);  // thumb_tip - index_tip, m (NaN if
 // 6 mm from the index tip (the pads touch), open = 6 cm away.
 PinchPoses parametric_pinch_poses();
 // A real pinched frame (the smallest thumb-index distance) and a real open frame (distance
-// in 5-7 cm, the one whose other fingers are closest to the pinched frame's) from the hand
+// in 5-7 cm, the one whose four fingers are closest to the pinched frame's) from the hand
 // of `track` with more fully tracked frames (a left hand is mirrored into a right hand).
 // Frames whose bones differ by more than 20 % from the hand's median are skipped (tracker
 // glitches). Throws InputError naming source_name when no frame qualifies.
