@@ -74,6 +74,10 @@ struct Applier {
     if (v >= 0.0 && v <= 500.0) c.horizon_ns = static_cast<int64_t>(std::llround(v * 1e6));
     else warnings.push_back(where + ": horizon must be in [0, 500] ms");
   }
+  void stgae_phases(double v, const std::string& where) {
+    if (v >= 0 && v <= kStgaeMaxPhases && v == std::floor(v)) c.stgae_phases = static_cast<int>(v);
+    else warnings.push_back(where + ": must be an integer in [0, " + std::to_string(kStgaeMaxPhases) + "]");
+  }
   void log_level(const std::string& v, const std::string& where) {
     if (auto l = parse_level(v)) c.log_level = *l;
     else warnings.push_back(where + ": unknown log level '" + v + "' (off, error, warn, info, debug)");
@@ -125,6 +129,10 @@ void apply_file(const std::string& path, Applier& a) {
   if (j.contains("horizon_ms")) {
     if (j["horizon_ms"].is_number()) a.horizon_ms(j["horizon_ms"].get<double>(), where + ": horizon_ms");
     else a.warnings.push_back(where + ": 'horizon_ms' must be a number");
+  }
+  if (j.contains("stgae_phases")) {
+    if (j["stgae_phases"].is_number()) a.stgae_phases(j["stgae_phases"].get<double>(), where + ": stgae_phases");
+    else a.warnings.push_back(where + ": 'stgae_phases' must be a number");
   }
   FilterConfig& f = a.c.filter;
   double max_gap_ms = f.max_gap_s * 1e3;
@@ -221,6 +229,10 @@ LoadedConfig load_layer_config() {
   if (auto v = env("HANDSTEADY_HORIZON_MS")) {
     if (auto d = parse_double(*v)) a.horizon_ms(*d, "HANDSTEADY_HORIZON_MS");
     else out.warnings.push_back("HANDSTEADY_HORIZON_MS: not a number: '" + *v + "'");
+  }
+  if (auto v = env("HANDSTEADY_STGAE_PHASES")) {
+    if (auto d = parse_double(*v)) a.stgae_phases(*d, "HANDSTEADY_STGAE_PHASES");
+    else out.warnings.push_back("HANDSTEADY_STGAE_PHASES: not a number: '" + *v + "'");
   }
   if (auto v = env("HANDSTEADY_LOG")) a.log_level(*v, "HANDSTEADY_LOG");
   if (auto v = env("HANDSTEADY_RECORD")) c.record_dir = *v;

@@ -36,6 +36,10 @@ struct LayerConfig {
   std::string model_path;       // model file for stgae (empty: hs::lookup_default_model)
   // Loaded once per instance when engine == Stgae; shared (read-only) by every tracker.
   std::shared_ptr<const StgaeModel> model;
+  // Multi-STGAE streams per tracker: 0 = the app's call rate / the model rate (one model
+  // step per call); 1 = one stream (a step every model period, answers moved along its
+  // predicted path in between: a third of the compute at 90 Hz, rougher answers).
+  int stgae_phases = 0;
   int64_t horizon_ns = 20'000'000;  // predict mode: sample the runtime this long before the asked time
   LogLevel log_level = LogLevel::Warn;
   std::string record_dir;       // non-empty: write raw and filtered track CSVs per tracker

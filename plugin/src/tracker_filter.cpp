@@ -25,7 +25,7 @@ std::unique_ptr<PoseFilter> make_layer_engine(const LayerConfig& c) {
   if (c.engine == Engine::Stgae && c.model) {
     // The horizon only matters for validation here: estimates are asked at explicit times.
     const double horizon_s = c.mode == Mode::Predict ? static_cast<double>(c.horizon_ns) * 1e-9 : 0.0;
-    return make_stgae_filter(c.model, horizon_s);
+    return make_stgae_filter(c.model, horizon_s, c.stgae_phases);
   }
   return make_filter(c.filter);
 }
