@@ -17,7 +17,7 @@ cmake -S . -B build/release -DCMAKE_BUILD_TYPE=Release -DHS_BUILD_TESTS=OFF -DHS
 cmake --build build/release -j"$(nproc)" --target handsteady XrApiLayer_handsteady handsteady_replay_runtime handsteady_demo
 b=build/release
 hs=$b/cli/handsteady
-out=${HS_DEMO_OUT:-out/demo}
+out=$(realpath -m "${HS_DEMO_OUT:-out/demo}")  # absolute: the runtime and app get paths
 rm -rf "$out" && mkdir -p "$out"
 data=${HS_SHARED_DATA:-$root/../shared/data}
 
@@ -37,7 +37,7 @@ $hs synth-handwriting --text "ISMAR" --tremor parkinson --seed 1 --out "$out/han
 #    runtime-side prediction), like a tracker without extrapolation.
 export XR_RUNTIME_JSON=$root/$b/runtime_shim/handsteady_replay_runtime.json
 export XR_API_LAYER_PATH=$root/$b/plugin
-export HANDSTEADY_SHIM_TRACK=$root/$out/handwriting.csv HANDSTEADY_SHIM_CLOCK=sim:11.111111 HANDSTEADY_SHIM_FUTURE=hold
+export HANDSTEADY_SHIM_TRACK=$out/handwriting.csv HANDSTEADY_SHIM_CLOCK=sim:11.111111 HANDSTEADY_SHIM_FUTURE=hold
 unset XR_ENABLE_API_LAYERS HANDSTEADY_CONFIG HANDSTEADY_MODEL
 # A frame PNG every second; with ffmpeg installed every 3rd frame, made into a 30 fps video.
 every=90
