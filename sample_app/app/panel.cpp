@@ -15,7 +15,12 @@ glm::vec3 v3(const Eigen::Vector3d& p) {
 
 SceneGeometry scene_from_strokes(const std::vector<Polyline>& strokes) {
   SceneGeometry s;
-  s.guides = strokes;
+  for (const auto& line : strokes) {
+    std::vector<glm::vec3> g;
+    g.reserve(line.size());
+    for (const auto& p : line) g.push_back(v3(p));
+    s.guides.push_back(std::move(g));
+  }
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
   for (const auto& line : strokes)
     for (const auto& p : line) {
@@ -41,14 +46,8 @@ void draw_panel(render::Renderer& r, const render::Viewport& vp, const SceneGeom
   r.set_camera(render::Camera::facing_plane(vp.aspect(), -scene.plane_z, scene.centre, height));
   // Guide strokes of the font: what the user means to write.
   if (!scene.guides.empty()) {
-    std::vector<std::vector<glm::vec3>> guides;
-    for (const auto& line : scene.guides) {
-      std::vector<glm::vec3> g;
-      for (const auto& p : line) g.push_back(v3(p));
-      guides.push_back(std::move(g));
-    }
     const Color guide = Color::rgb8(200, 200, 215);
-    r.polylines3d(guides, std::span<const Color>(&guide, 1), 9.0f);
+    r.polylines3d(scene.guides, std::span<const Color>(&guide, 1), 9.0f);
   }
   // Ink.
   if (content.ink && !content.ink->empty()) {

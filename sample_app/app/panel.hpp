@@ -19,7 +19,7 @@ struct PanelContent {
 };
 
 struct SceneGeometry {
-  std::vector<Polyline> guides;  // font strokes (faint), may be empty
+  std::vector<std::vector<glm::vec3>> guides;  // font strokes (faint), converted once; may be empty
   render::Camera camera;         // set per panel aspect by draw_panel
   float plane_z = -0.45f;
   glm::vec2 centre{0.0f, 0.0f};
