@@ -2,7 +2,7 @@
 // Output row at time t uses only input rows of that hand with time <= t and is the
 // filter's estimate at t + horizon. --method stgae runs the Multi-STGAE streaming engine
 // the same way; --offline runs a centred model in window mode over the whole recording
-// (non-causal). See docs/FILTERS.md.
+// (non-causal; with a horizon, the window ending at each row predicts). See docs/FILTERS.md.
 #include "commands.hpp"
 
 #include "handsteady/error.hpp"
@@ -103,6 +103,10 @@ void prepare_stgae(FilterOptions& o) {
     throw InputError({o.model_source, 0, "--model"},
                      "this model is centred (non-causal): it cannot stream; use --offline for window mode");
   }
+  if (o.offline && o.horizon_ms > 0.0 && !o.model->config.predict) {
+    throw InputError({o.model_source, 0, "--horizon-ms"},
+                     "this model has no prediction branch: --offline with a horizon needs one (or use --horizon-ms 0)");
+  }
 }
 
 std::unique_ptr<PoseFilter> make_stgae(const FilterOptions& o) { return make_stgae_filter(o.model, o.horizon_ms * 1e-3, o.phases); }
@@ -137,6 +141,48 @@ const MethodEntry& find_method(std::string_view name) {
                                                        fmt::join(method_names(), ", ")));
 }
 
+// Window-mode prediction over one resampled segment (offline_series with a horizon):
+// for each row, the window of T grid frames ending at the row's grid frame (at or before
+// the row), its path [denoised last frame, predicted DT frames] read at row time + horizon
+// (piecewise linear; beyond the last predicted frame its last segment continues).
+void predict_rows(const StgaeNet<float>& net, const StgaeFrames<float>& grid, const std::vector<double>& gt,
+                  double t0, double horizon_s, const std::vector<size_t>& tracked, size_t a, size_t b,
+                  const std::array<bool, kJointCount>& seen, HandSeries& out) {
+  const StgaeConfig& c = net.config();
+  const int T = c.window, DT = c.horizon, frames = static_cast<int>(grid.rows());
+  const double period = 1.0 / c.rate_hz;
+  StgaeFrames<float> window(T, grid.cols());
+  int cached = -1;
+  StgaeOutput<float> y;
+  for (size_t q = a; q <= b; ++q) {
+    const size_t row = tracked[q];
+    const double tr = out.t[row];
+    // A grid frame up to 1 us after the row counts as at it (CSV times are rounded to ns);
+    // never a later one.
+    constexpr double kTolS = 1e-6;
+    int k = std::clamp(static_cast<int>(std::floor((tr + kTolS - t0) / period)), 0, frames - 1);
+    while (k > 0 && gt[static_cast<size_t>(k)] > tr + kTolS) --k;
+    if (k != cached) {
+      for (int i = 0; i < T; ++i) window.row(i) = grid.row(std::max(0, k - (T - 1) + i));
+      y = stgae_window_forward(net, window);
+      cached = k;
+    }
+    const double s = (tr + horizon_s - gt[static_cast<size_t>(k)]) / period;  // periods after frame k
+    const int seg = std::clamp(static_cast<int>(std::floor(s)), 0, DT - 1);
+    const double f = s - seg;
+    const auto point = [&](int i, Eigen::Index col) {
+      return static_cast<double>(i == 0 ? y.denoised(T - 1, col) : y.predicted(i - 1, col));
+    };
+    Pose& p = out.pos[row];
+    for (int j = 0; j < kJointCount; ++j)
+      for (int d = 0; d < 3; ++d) {
+        const Eigen::Index col = 3 * j + d;
+        const double v0 = point(seg, col), v1 = point(seg + 1, col);
+        p(j, d) = seen[static_cast<size_t>(j)] ? v0 + f * (v1 - v0) : std::numeric_limits<double>::quiet_NaN();
+      }
+  }
+}
+
 // Offline (window-mode) denoising of one hand with a centred model. The tracked rows are
 // cut into segments wherever the hand is lost for more than kStgaeGapResetS (as the
 // streaming adapter resets there). Each segment is resampled onto the model grid
@@ -147,7 +193,11 @@ const MethodEntry& find_method(std::string_view name) {
 // segment, so frame k comes off-centre from the first/last full window. A segment shorter
 // than T frames is padded by repeating its first and last frames. The denoised grid is
 // interpolated back to the segment's rows; joints never observed in a segment stay NaN.
-HandSeries offline_series(const StgaeModel& model, const HandSeries& in) {
+// horizon_s > 0 (the paper's prediction protocol instead): grid frame k is answered by the
+// window that ends at it (frames k-T+1..k, the first frame repeated before the segment's
+// start): the path [denoised k, predicted k+1..k+DT] at horizon_s after the row, taken
+// from the row's own grid frame or the one before, so only rows up to the row are used.
+HandSeries offline_series(const StgaeModel& model, const HandSeries& in, double horizon_s) {
   const StgaeConfig& c = model.config;
   const int n = c.joint_count();
   if (n != kJointCount) throw InputError({"", 0, "--model"}, "offline filtering needs a 26-joint (xr26) model");
@@ -195,9 +245,14 @@ HandSeries offline_series(const StgaeModel& model, const HandSeries& in) {
       }
     }
 
+    StgaeFrames<float> window(T, width);
+    if (horizon_s > 0.0) {
+      predict_rows(net, grid, gt, t0, horizon_s, tracked, a, b, seen, out);
+      a = b + 1;
+      continue;
+    }
     // Window mode, one window per start position; each grid frame taken from its window.
     StgaeFrames<float> den(frames, width);
-    StgaeFrames<float> window(T, width);
     if (frames < T) {
       const int pad = (T - frames) / 2;
       for (int i = 0; i < T; ++i) window.row(i) = grid.row(std::clamp(i - pad, 0, frames - 1));
@@ -259,9 +314,7 @@ void run_filter(const FilterOptions& options) {
     throw InputError({"", 0, "--horizon-ms"}, fmt::format("horizon must be >= 0 ms, got {}", o.horizon_ms));
   }
   if (o.offline && method.name != "stgae") throw InputError({"", 0, "--offline"}, "--offline needs --method stgae");
-  if (o.offline && o.horizon_ms != 0.0) {
-    throw InputError({"", 0, "--horizon-ms"}, "--offline denoises a whole recording; it does not predict (use --horizon-ms 0)");
-  }
+
   if (o.phases != 0 && method.name != "stgae") {
     throw InputError({"", 0, "--phases"}, fmt::format("--phases is for --method stgae, not {}", method.name));
   }
@@ -279,7 +332,7 @@ void run_filter(const FilterOptions& options) {
   }
   Track track = read_track_csv(o.in);
   if (o.offline) {
-    map_hands(track, [&](const HandSeries& s) { return offline_series(*o.model, s); });
+    map_hands(track, [&](const HandSeries& s) { return offline_series(*o.model, s, o.horizon_ms * 1e-3); });
   } else {
     const double horizon_s = o.horizon_ms * 1e-3;
     map_hands(track, [&](const HandSeries& s) {
@@ -324,7 +377,8 @@ void setup_filter(CLI::App& app) {
                   "Multi-STGAE: interleaved streams for input faster than the model (0 = input rate / model rate)")
       ->capture_default_str();
   sub->add_flag("--offline", o->offline,
-                "Multi-STGAE: run a centred model in window mode over the whole recording (not causal)");
+                "Multi-STGAE: run a centred model in window mode over the whole recording (not causal); with "
+                "--horizon-ms, the window ending at each row predicts (the paper's protocol)");
   sub->callback([o] { run_filter(*o); });
 }
 

@@ -398,7 +398,27 @@ TEST_CASE("stgae --offline: centred window mode over the recording, each frame f
         err = std::max(err, std::abs(static_cast<double>(y.denoised(c, 3 * j + d)) - right_out.pos[static_cast<size_t>(k)](j, d)));
     CHECK(err < 1e-4);
   }
-  CHECK(filter_cli(dir / "in.csv", dir / "out.csv",
-                   "--method stgae --offline --horizon-ms 20 --model " + quoted(models().random_centred)) == 2);
+  // With a horizon (the paper's prediction protocol): row k from the window ending at k,
+  // its path [denoised k, predicted k+1, k+2] read 50 ms = 1.5 periods after the row.
+  const hs::Track ahead =
+      run_ok(in, dir, "--method stgae --offline --horizon-ms 50 --model " + quoted(models().random_centred));
+  check_structure(in, ahead, 1.0);  // random weights: predicted offsets are larger than denoised ones
+  const hs::HandSeries right_ahead = hs::hand_series(ahead, Hand::Right);
+  for (int k : {2, 20, 40}) {
+    CAPTURE(k);
+    hs::StgaeFrames<float> w(T, 3 * n);
+    for (int i = 0; i < T; ++i)
+      for (int j = 0; j < n; ++j)
+        for (int d = 0; d < 3; ++d)
+          w(i, 3 * j + d) = static_cast<float>(right.pos[static_cast<size_t>(std::max(0, k - (T - 1) + i))](j, d));
+    const auto y = hs::stgae_window_forward(*model->net, w);
+    double err = 0.0;
+    for (int j = 0; j < n; ++j)
+      for (int d = 0; d < 3; ++d) {
+        const double expect = 0.5 * (static_cast<double>(y.predicted(0, 3 * j + d)) + static_cast<double>(y.predicted(1, 3 * j + d)));
+        err = std::max(err, std::abs(expect - right_ahead.pos[static_cast<size_t>(k)](j, d)));
+      }
+    CHECK(err < 1e-4);
+  }
   fs::remove_all(dir);
 }
