@@ -3,6 +3,9 @@
 # filters -> compare, denoising (H = 0) and prediction (H = 50 ms), for the `tracker`,
 # `paper` and `tremor` presets. The Multi-STGAE rows use the shipped model
 # (models/handsteady_xr26_causal.hsm, or HANDSTEADY_MODEL) and are left out without one.
+# HS_CENTRED_MODEL=FILE adds a column for a centred model in window mode (`--offline`:
+# denoising from each frame's centred window, which sees (T-1)/2 future frames; prediction
+# from the window ending at each row, the paper's protocol).
 # Usage: scripts/fpha_table.sh HANDSTEADY_BINARY SHARED_DATA_DIR OUT_DIR
 set -euo pipefail
 hs=$1; data=$2; out=$3
@@ -24,6 +27,13 @@ for preset in tracker paper tremor; do
     $hs filter --in "$d/noisy.csv" --out "$d/${m}_h50.csv" --method "$m" --horizon-ms 50 >/dev/null
     den+=(--in "$m=$d/$m.csv"); pre+=(--in "$m=$d/${m}_h50.csv")
   done
+  if [ -n "${HS_CENTRED_MODEL:-}" ]; then
+    m=stgae-centred-window
+    $hs filter --in "$d/noisy.csv" --out "$d/$m.csv" --method stgae --offline --model "$HS_CENTRED_MODEL" >/dev/null
+    $hs filter --in "$d/noisy.csv" --out "$d/${m}_h50.csv" --method stgae --offline --horizon-ms 50 \
+      --model "$HS_CENTRED_MODEL" >/dev/null
+    den+=(--in "$m=$d/$m.csv"); pre+=(--in "$m=$d/${m}_h50.csv")
+  fi
   echo "#### \`$preset\` preset: denoising (H = 0)"
   $hs compare --truth "$out/clean.csv" "${den[@]}"
   echo

@@ -21,8 +21,8 @@ run build/test -DCMAKE_BUILD_TYPE=RelWithDebInfo
 if [ "${1:-}" != "--quick" ]; then
   export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
   export LSAN_OPTIONS=suppressions=$root/tests/lsan.supp
-  # libtorch is not instrumented: the sanitizer builds leave training out.
-  run build/asan -DCMAKE_BUILD_TYPE=Debug -DHS_SANITIZE=address,undefined -DHS_BUILD_TRAINING=OFF
+  # The training tests too: libtorch itself is not instrumented, our code around it is.
+  run build/asan -DCMAKE_BUILD_TYPE=Debug -DHS_SANITIZE=address,undefined
   # Concurrency tests (CTest label "tsan"; their targets in tests/tsan_targets.txt).
   HS_TARGETS="$(grep -v '^#' tests/tsan_targets.txt)" HS_CTEST_ARGS="-L tsan" \
     run build/tsan -DCMAKE_BUILD_TYPE=Debug -DHS_SANITIZE=thread -DHS_BUILD_TRAINING=OFF
