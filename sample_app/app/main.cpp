@@ -4,7 +4,11 @@
 // and HandSteady's, each with its ink: the index fingertip's trail while thumb tip and
 // index tip pinch. In a GLFW window when a display exists, else headless through OSMesa,
 // writing PNG frames, the final composite, the trajectory plot and a metrics summary.
+#include "handsteady/filters.hpp"
 #include "handsteady/ink.hpp"
+#include "handsteady/model_path.hpp"
+#include "handsteady/stgae_engine.hpp"
+#include "handsteady/stgae_model.hpp"
 #include "handsteady/track_ops.hpp"
 #include "handsteady_render/context.hpp"
 #include "handsteady_render/renderer.hpp"
@@ -30,12 +34,30 @@ struct Options {
   double max_seconds = 600.0;
   int frames_every = 0;
   int panel_width = 640, panel_height = 480;
+  double predict_ms = 50.0;  // the plot's Multi-STGAE prediction from the raw joints; 0 = none
   bool window = false, headless = false;
 };
 
 std::string layer_mode() {
   const char* m = std::getenv("HANDSTEADY_MODE");
   return m && *m ? m : "denoise";
+}
+
+// The shipped (or HANDSTEADY_MODEL) Multi-STGAE model run causally over the raw joints,
+// each row answered for row time + horizon; none (with a note) when no model is usable.
+std::optional<hs::demo::Prediction> predict_from_raw(const hs::HandSeries& raw, double horizon_ms) {
+  try {
+    hs::demo::Prediction p;
+    p.horizon_ms = horizon_ms;
+    const std::filesystem::path file = hs::default_model_path();
+    p.model = file.filename().string();
+    const auto filter = hs::make_stgae_filter(hs::load_hsm(file), horizon_ms * 1e-3);
+    p.at_row = hs::filter_series(*filter, raw, horizon_ms * 1e-3);
+    return p;
+  } catch (const std::exception& e) {
+    fmt::print("demo: no prediction in the plot: {}\n", e.what());
+    return std::nullopt;
+  }
 }
 
 int run(const Options& opt) {
@@ -164,6 +186,7 @@ int run(const Options& opt) {
     rec[static_cast<size_t>(p)].ink = ink[static_cast<size_t>(p)].strokes();
     report.panels.push_back(std::move(rec[static_cast<size_t>(p)]));
   }
+  if (panels == 2 && opt.predict_ms > 0.0) report.prediction = predict_from_raw(report.panels.front().seen, opt.predict_ms);
   report.strokes = strokes;
   report.truth = truth;
   report.layer_mode = mode;
@@ -191,6 +214,9 @@ int main(int argc, char** argv) {
       ->check(CLI::NonNegativeNumber)->capture_default_str();
   app.add_option("--panel-width", opt.panel_width, "Panel width (pixels)")->check(CLI::Range(64, 4096))->capture_default_str();
   app.add_option("--panel-height", opt.panel_height, "Panel height (pixels)")->check(CLI::Range(64, 4096))->capture_default_str();
+  app.add_option("--predict-ms", opt.predict_ms,
+                 "Plot and score a Multi-STGAE prediction this far ahead from the raw joints (0: none)")
+      ->check(CLI::Range(0.0, 500.0))->capture_default_str();
   auto* w = app.add_flag("--window", opt.window, "Open a GLFW window (default when a display exists)");
   app.add_flag("--headless", opt.headless, "Render offscreen through OSMesa even with a display")->excludes(w);
   CLI11_PARSE(app, argc, argv);

@@ -20,6 +20,21 @@ std::string fmt_num(double v, int decimals) {
   return std::isfinite(v) ? fmt::format("{:.{}f}", v, decimals) : std::string("-");
 }
 
+// A tracking gap (no frame for over 0.1 s) becomes an untracked frame: a gap in the
+// plotted curve, not a straight line across it.
+HandSeries with_gaps(const HandSeries& in) {
+  HandSeries out;
+  for (size_t i = 0; i < in.size(); ++i) {
+    if (i > 0 && in.t[i] - in.t[i - 1] > 0.1) {
+      out.t.push_back(0.5 * (in.t[i] + in.t[i - 1]));
+      out.pos.push_back(untracked_pose());
+    }
+    out.t.push_back(in.t[i]);
+    out.pos.push_back(in.pos[i]);
+  }
+  return out;
+}
+
 }  // namespace
 
 std::string write_report(const std::filesystem::path& dir, const ReportInputs& in) {
@@ -77,28 +92,50 @@ std::string write_report(const std::filesystem::path& dir, const ReportInputs& i
                       fmt_num(m.mean_distance_mm, 2), fmt_num(m.p95_distance_mm, 2), fmt_num(m.coverage, 3),
                       fmt_num(m.jerk_rms_m_s3, 1), fmt_num(m.latency_ms, 1), fmt_num(tip_mm, 2), fmt_num(mpjpe, 2));
   }
+  if (in.prediction && in.truth && !in.panels.empty()) {
+    // Index-tip error against the truth at t + H: the prediction, and the raw joints of t.
+    const Prediction& pr = *in.prediction;
+    const HandSeries& raw = in.panels.front().seen;
+    const double h = pr.horizon_ms * 1e-3;
+    const int k = idx(Joint::IndexTip);
+    double sp = 0.0, sr = 0.0;
+    long n = 0;
+    for (size_t i = 0; i < pr.at_row.size() && i < raw.size(); ++i) {
+      const Pose t = interpolate_pose(*in.truth, pr.at_row.t[i] + h);
+      if (!joint_tracked(t, k) || !joint_tracked(pr.at_row.pos[i], k) || !joint_tracked(raw.pos[i], k)) continue;
+      sp += (t.row(k) - pr.at_row.pos[i].row(k)).norm() * 1e3;
+      sr += (t.row(k) - raw.pos[i].row(k)).norm() * 1e3;
+      ++n;
+    }
+    const double ep = n ? sp / static_cast<double>(n) : std::nan(""), er = n ? sr / static_cast<double>(n) : std::nan("");
+    j["prediction"] = {{"horizon_ms", pr.horizon_ms},
+                       {"model", pr.model},
+                       {"index_tip_error_mm", num(ep)},
+                       {"raw_index_tip_error_mm", num(er)}};
+    md += fmt::format("\nMulti-STGAE prediction +{:g} ms from the raw joints ({}): index-tip error {} mm against the "
+                      "truth at t + {:g} ms; the raw joints of t: {} mm.\n",
+                      pr.horizon_ms, pr.model, fmt_num(ep, 2), pr.horizon_ms, fmt_num(er, 2));
+  }
   std::ofstream(dir / "summary.json") << j.dump(2) << "\n";
   std::ofstream(dir / "summary.md") << md;
 
   if (in.truth) {
     // The index fingertip over time: what each panel received and the truth.
     render::TrajectoryPlot plot;
-    plot.title = "Index fingertip: raw, HandSteady (" + in.layer_mode + ") and truth";
+    plot.title = "Index fingertip (" + in.layer_mode + ")";
     const render::Color colors[] = {render::Color::rgb8(220, 60, 50), render::Color::rgb8(30, 110, 220)};
     size_t c = 0;
     for (const PanelRecord& p : in.panels) {
-      // A tracking gap (no frame for over 0.1 s) is a gap in the curve, not a straight line.
-      std::vector<double> t;
-      std::vector<Pose> pos;
-      for (size_t i = 0; i < p.seen.size(); ++i) {
-        if (i > 0 && p.seen.t[i] - p.seen.t[i - 1] > 0.1) {
-          t.push_back(0.5 * (p.seen.t[i] + p.seen.t[i - 1]));
-          pos.push_back(untracked_pose());
-        }
-        t.push_back(p.seen.t[i]);
-        pos.push_back(p.seen.pos[i]);
-      }
-      plot.series.push_back(render::joint_series(p.label, colors[c++ % 2], t, pos, idx(Joint::IndexTip)));
+      const HandSeries s = with_gaps(p.seen);
+      plot.series.push_back(render::joint_series(p.label, colors[c++ % 2], s.t, s.pos, idx(Joint::IndexTip)));
+      plot.series.back().width_px = 1.5f;
+    }
+    if (in.prediction) {
+      const Prediction& pr = *in.prediction;
+      const HandSeries s = with_gaps(pr.at_row);
+      plot.series.push_back(render::joint_series(fmt::format("predicted +{:g} ms (from raw)", pr.horizon_ms),
+                                                 render::Color::rgb8(40, 160, 70), s.t, s.pos, idx(Joint::IndexTip),
+                                                 pr.horizon_ms * 1e-3));
       plot.series.back().width_px = 1.5f;
     }
     plot.series.push_back(

@@ -21,15 +21,25 @@ struct PanelRecord {
   std::vector<InkStroke> ink;
 };
 
+// The index fingertip predicted `horizon_ms` ahead by a Multi-STGAE model run over the raw
+// panel's joints after the session (the layer answers the app at the display time only).
+struct Prediction {
+  double horizon_ms = 0.0;
+  std::string model;  // file
+  HandSeries at_row;  // estimate for t + horizon, stored at the row time t
+};
+
 struct ReportInputs {
   std::vector<PanelRecord> panels;
+  std::optional<Prediction> prediction;
   std::optional<StrokeSet> strokes;
   std::optional<HandSeries> truth;  // right hand of the clean track
   std::string layer_mode;           // "denoise", "predict"
 };
 
 // Writes <dir>/{raw,handsteady}_seen.csv, summary.json, summary.md and (with truth)
-// index_tip_plot.png; returns the summary text (Markdown).
+// index_tip_plot.png (with the prediction, when given, at its target times); returns the
+// summary text (Markdown).
 std::string write_report(const std::filesystem::path& dir, const ReportInputs& in);
 
 }  // namespace hs::demo

@@ -108,6 +108,12 @@ TEST_CASE("demo: with the shipped model (the layer's default) the ink is closer 
   CHECK(ink["mean_distance_mm"].get<double>() < 0.95 * raw["mean_distance_mm"].get<double>());
   CHECK(ink["jerk_rms_m_s3"].get<double>() < 0.75 * raw["jerk_rms_m_s3"].get<double>());
   CHECK(ink["latency_ms"].get<double>() < raw["latency_ms"].get<double>() + 5.0);
+  // The plot's prediction (+50 ms, from the raw joints): nearer the truth at t + 50 ms
+  // than the raw joints of t.
+  MESSAGE("prediction: " << j["prediction"].dump());
+  REQUIRE(j.contains("prediction"));
+  CHECK(j["prediction"]["horizon_ms"].get<double>() == 50.0);
+  CHECK(j["prediction"]["index_tip_error_mm"].get<double>() < 0.95 * j["prediction"]["raw_index_tip_error_mm"].get<double>());
   std::ifstream log(dir / "out.log");
   const std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
   CHECK(text.find("raw side channel on") != std::string::npos);
