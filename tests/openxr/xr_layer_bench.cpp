@@ -3,7 +3,8 @@
 // VIEW base space with head motion and chained velocities. Prints p50/p99 per call.
 // The layer runs its default engine (the shipped model when found) unless HS_BENCH_METHOD
 // names one (raw, oneeuro, desp, kalman, stgae); HS_BENCH_ISA=baseline keeps the layer's
-// baseline build (default: its x86-64-v3 build where the CPU has it).
+// baseline build (default: its x86-64-v3 build where the CPU has it); HS_BENCH_PHASES=K
+// sets HANDSTEADY_STGAE_PHASES (Multi-STGAE streams per tracker).
 //   HS_BENCH_FRAMES=3000 xr_layer_bench
 #include "xr_test_app.hpp"
 
@@ -57,6 +58,7 @@ TEST_CASE("layer overhead per xrLocateHandJointsEXT call") {
   if (const char* m = std::getenv("HS_BENCH_METHOD"); m && *m) set_env("HANDSTEADY_METHOD", m);
   else unset_env("HANDSTEADY_METHOD");
   if (const char* isa = std::getenv("HS_BENCH_ISA"); isa && *isa) set_env("HANDSTEADY_ISA", isa);
+  if (const char* k = std::getenv("HS_BENCH_PHASES"); k && *k) set_env("HANDSTEADY_STGAE_PHASES", k);
   set_env("HANDSTEADY_SHIM_HEAD_MOTION", "1");
   const auto off = measure(g_frames);
   enable_layers({kLayer});
