@@ -255,3 +255,28 @@ TEST_CASE("weights checks: missing, unexpected, wrong shape, negative variance")
   ref.denoised[5] += 0.01f;
   CHECK_THROWS_AS(hs::make_stgae_model(c, w, ref), hs::InputError);
 }
+
+TEST_CASE("the models shipped in models/ load (checksum and reference pair verified) with their card's configuration") {
+  const auto dir = std::filesystem::path(HS_FIXTURES) / ".." / ".." / "models";
+  // The causal model the layer and the CLI use by default (models/MODEL.md).
+  const auto causal = hs::load_hsm(dir / "handsteady_xr26_causal.hsm");
+  CHECK(causal->config.padding == hs::StgaePadding::Causal);
+  CHECK(causal->config.window == 16);
+  CHECK(causal->config.joint_count() == hs::kJointCount);
+  // The centred published-structure model for window mode (models/MODEL.md "Centred").
+  const auto centred = hs::load_hsm(dir / "handsteady_xr26_centred.hsm");
+  const hs::StgaeConfig& c = centred->config;
+  CHECK(c.padding == hs::StgaePadding::Centred);
+  CHECK(c.window == 36);
+  CHECK(c.horizon == 5);
+  CHECK(c.temporal_kernel == 9);
+  CHECK(c.attention == hs::StgaeAttention::ABC);
+  CHECK(c.gates);
+  CHECK(c.predict);
+  const std::vector<float> in = hs::synthetic_hand_input(c, c.window, 3);
+  const hs::StgaeFrames<float> frames =
+      Eigen::Map<const hs::StgaeFrames<float>>(in.data(), c.window, 3 * c.joint_count());
+  const auto y = hs::stgae_window_forward(*centred->net, frames);
+  CHECK(y.denoised.allFinite());
+  CHECK(y.predicted.rows() == 5);
+}
