@@ -84,7 +84,7 @@ class StgaeFilter final : public PoseFilter {
       have_grid_ = true;
       return true;
     }
-    if (++valid_rows_ == kRateRows && fixed_phases_ == 0) choose_phases(t);
+    if (valid_rows_ < kRateRows && ++valid_rows_ == kRateRows && fixed_phases_ == 0) choose_phases(t);
     // Every sub-grid tick in (prev_t_, t] gets the linearly interpolated frame. Ticks are
     // t0 + m * sub_period (no accumulated rounding), and a tick up to 1 us after t counts
     // as at t: input on the grid, written with rounded times (e.g. 1/30 s to 9 decimals),
