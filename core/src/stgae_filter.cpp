@@ -161,21 +161,19 @@ class StgaeFilter final : public PoseFilter {
   static constexpr double kOlderPhaseWeight = 0.5;
 
   void restart_grid() noexcept {
-    for (int k = 0; k < kStgaeMaxPhases; ++k) {
-      streams_[static_cast<size_t>(k)]->reset();
-      out_[static_cast<size_t>(k)].have = out_[static_cast<size_t>(k)].have_prev = out_[static_cast<size_t>(k)].warm = false;
-    }
+    for (auto& stream : streams_) stream->reset();
+    for (PhaseOutput& o : out_) o.have = o.have_prev = o.warm = false;
     have_grid_ = false;
     latest_ = -1;
   }
 
-  // K = the input rate over the model rate, rounded, 1..kStgaeMaxPhases. Stream 0 keeps its
-  // history: its ticks t0 + k * period stay on the finer sub-grid (m = k * K).
+  // K = the input rate over the model rate, rounded, 1..kStgaeMaxPhases; called once per
+  // grid, while it runs one stream. Stream 0 keeps its history: its ticks t0 + k * period
+  // stay on the finer sub-grid (m = k * K).
   void choose_phases(double t) noexcept {
     const double mean_dt = (t - first_t_) / static_cast<double>(kRateRows - 1);
     const int k = std::clamp(static_cast<int>(std::lround(period_ / mean_dt)), 1, kStgaeMaxPhases);
-    if (k == phases_ || ticks_ % phases_ != 0) return;  // (phases_ is 1 here, so always aligned)
-    ticks_ = ticks_ / phases_ * k;
+    ticks_ *= k;
     phases_ = k;
     sub_period_ = period_ / k;
   }
