@@ -245,7 +245,6 @@ HandSeries offline_series(const StgaeModel& model, const HandSeries& in, double 
       }
     }
 
-    StgaeFrames<float> window(T, width);
     if (horizon_s > 0.0) {
       predict_rows(net, grid, gt, t0, horizon_s, tracked, a, b, seen, out);
       a = b + 1;
@@ -253,6 +252,7 @@ HandSeries offline_series(const StgaeModel& model, const HandSeries& in, double 
     }
     // Window mode, one window per start position; each grid frame taken from its window.
     StgaeFrames<float> den(frames, width);
+    StgaeFrames<float> window(T, width);
     if (frames < T) {
       const int pad = (T - frames) / 2;
       for (int i = 0; i < T; ++i) window.row(i) = grid.row(std::clamp(i - pad, 0, frames - 1));
