@@ -48,6 +48,21 @@ Errors run_and_measure(App& app, const TrackFiles& f, XrSpace base, int frames, 
   return e;
 }
 
+// Predict mode against a runtime that answers its latest sample 40 ms late (no
+// runtime-side prediction): the layer predicts 40 ms ahead. Errors at the display time;
+// raw = the runtime's stale answer. The engine is whatever the environment selects.
+Errors predict_against_stale_runtime(const TrackFiles& f, int frames) {
+  set_env("HANDSTEADY_SHIM_FUTURE", "hold");
+  set_env("HANDSTEADY_SHIM_LATENCY_MS", "40");
+  set_env("HANDSTEADY_MODE", "predict");
+  set_env("HANDSTEADY_HORIZON_MS", "40");
+  enable_layers({kLayer});
+  App app;
+  const Errors e = run_and_measure(app, f, app.local, frames, [](XrTime T) { return T - 40'000'000; });
+  app.shutdown();
+  return e;
+}
+
 std::vector<Joints> record_frames(App& app, int frames) {
   std::vector<Joints> out;
   for (int i = 0; i < frames; ++i) {
@@ -310,19 +325,12 @@ TEST_CASE("denoise: orientations follow the new bone directions; velocities stay
 TEST_CASE("predict: error at the display time below the runtime's stale answer") {
   const TrackFiles f = make_tracks("predict", 5.0, 0.001);
   reset_env(f);
-  set_env("HANDSTEADY_SHIM_FUTURE", "hold");  // the runtime answers its latest sample
-  set_env("HANDSTEADY_SHIM_LATENCY_MS", "40");
-  set_env("HANDSTEADY_MODE", "predict");
   set_env("HANDSTEADY_METHOD", "kalman");  // the classical predictor (One Euro does not predict)
-  set_env("HANDSTEADY_HORIZON_MS", "40");
-  enable_layers({kLayer});
-  App app;
-  const Errors e = run_and_measure(app, f, app.local, 400, [](XrTime T) { return T - 40'000'000; });
+  const Errors e = predict_against_stale_runtime(f, 400);
   for (int h = 0; h < 2; ++h) {
     MESSAGE("hand " << h << ": predicted " << e.mean(h) * 1e3 << " mm, runtime " << e.raw_mean(h) * 1e3 << " mm");
     CHECK(e.mean(h) < 0.9 * e.raw_mean(h));
   }
-  app.shutdown();
 }
 
 // The layer's default engine, the shipped Multi-STGAE model (30 Hz) found in the source
@@ -353,18 +361,11 @@ TEST_CASE("default engine (shipped model) at 90 Hz: denoise closer than raw, pre
   {
     reset_env(f);
     unset_env("HANDSTEADY_METHOD");
-    set_env("HANDSTEADY_SHIM_FUTURE", "hold");
-    set_env("HANDSTEADY_SHIM_LATENCY_MS", "40");
-    set_env("HANDSTEADY_MODE", "predict");
-    set_env("HANDSTEADY_HORIZON_MS", "40");
-    enable_layers({kLayer});
-    App app;
-    const Errors e = run_and_measure(app, f, app.local, 600, [](XrTime T) { return T - 40'000'000; });
+    const Errors e = predict_against_stale_runtime(f, 600);
     for (int h = 0; h < 2; ++h) {
       MESSAGE("predict hand " << h << ": layer " << e.mean(h) * 1e3 << " mm, runtime " << e.raw_mean(h) * 1e3 << " mm");
       CHECK(e.mean(h) < 0.9 * e.raw_mean(h));
     }
-    app.shutdown();
   }
 }
 
