@@ -19,16 +19,14 @@ if [ -f "$hl2" ]; then
 fi
 $hs synth-handwriting --text ISMAR --tremor none --noise none --rate 90 --out "$out/hw_none.csv" "${pose[@]}" >/dev/null
 $hs synth-handwriting --text ISMAR --tremor parkinson --seed 1 --rate 90 --out "$out/hw_park.csv" "${pose[@]}" >/dev/null
+score() {  # truth estimate -> "MPJPE / acceleration error"
+  $hs eval --truth "$1" --in "$2" --json |
+    python3 -c 'import json,sys; d=json.load(sys.stdin); print("%.2f / %.2f" % (d["mpjpe_mm"], d["accel_error_mm"]))'
+}
 row() {  # label truth noisy
-  local cells=()
-  for f in "$3" one three; do
-    local est=$f
-    if [ "$f" = one ]; then $hs filter --in "$3" --out "$out/one.csv" --method stgae --phases 1 >/dev/null; est=$out/one.csv; fi
-    if [ "$f" = three ]; then $hs filter --in "$3" --out "$out/three.csv" --method stgae >/dev/null; est=$out/three.csv; fi
-    cells+=("$($hs eval --truth "$2" --in "$est" --json |
-      python3 -c 'import json,sys; d=json.load(sys.stdin); print("%.2f / %.2f" % (d["mpjpe_mm"], d["accel_error_mm"]))')")
-  done
-  echo "| $1 | ${cells[0]} | ${cells[1]} | ${cells[2]} |"
+  $hs filter --in "$3" --out "$out/one.csv" --method stgae --phases 1 >/dev/null
+  $hs filter --in "$3" --out "$out/three.csv" --method stgae >/dev/null
+  echo "| $1 | $(score "$2" "$3") | $(score "$2" "$out/one.csv") | $(score "$2" "$out/three.csv") |"
 }
 echo "| track (90 Hz) | raw | 1 stream | default (3 streams) |"
 echo "|---|---:|---:|---:|"
