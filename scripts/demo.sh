@@ -38,6 +38,9 @@ $hs synth-handwriting --text "ISMAR" --tremor parkinson --seed 1 --out "$out/han
 export XR_RUNTIME_JSON=$root/$b/runtime_shim/handsteady_replay_runtime.json
 export XR_API_LAYER_PATH=$root/$b/plugin
 export HANDSTEADY_SHIM_TRACK=$out/handwriting.csv HANDSTEADY_SHIM_CLOCK=sim:11.111111 HANDSTEADY_SHIM_FUTURE=hold
+# The simulated clock runs faster than real time: the layer's worker answers in lockstep,
+# as it does in real time when it keeps up (docs/OPENXR_LAYER.md "Worker").
+export HANDSTEADY_WORKER=lockstep
 unset XR_ENABLE_API_LAYERS HANDSTEADY_CONFIG HANDSTEADY_MODEL
 # A frame PNG every second; with ffmpeg installed every 3rd frame, made into a 30 fps video.
 every=90

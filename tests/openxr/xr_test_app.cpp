@@ -53,7 +53,9 @@ void reset_env(const TrackFiles& files) {
                         "HANDSTEADY_METHOD", "HANDSTEADY_MODEL", "HANDSTEADY_HORIZON_MS", "HANDSTEADY_STGAE_PHASES", "HANDSTEADY_LOG",
                         "HANDSTEADY_RECORD", "HANDSTEADY_ISA", "HANDSTEADY_SHIM_CORRUPT", "HANDSTEADY_SHIM_CLOCK",
                         "HANDSTEADY_SHIM_LATENCY_MS", "HANDSTEADY_SHIM_FUTURE", "HANDSTEADY_SHIM_HEAD_MOTION",
-                        "HANDSTEADY_SHIM_FAULTS"})
+                        "HANDSTEADY_SHIM_FAULTS", "HANDSTEADY_WORKER", "HANDSTEADY_SMOOTHING",
+                        "HANDSTEADY_LEFT_SMOOTHING", "HANDSTEADY_RIGHT_SMOOTHING", "HANDSTEADY_LEFT_HORIZON_MS",
+                        "HANDSTEADY_RIGHT_HORIZON_MS", "HANDSTEADY_MAX_HORIZON_MS"})
     unset_env(v);
   // Keep system implicit layers out: the tests choose their layers.
   set_env("XDG_DATA_HOME", (files.dir / "xdg-empty").string());
