@@ -23,15 +23,29 @@ struct BaseMotion {
 };
 
 struct RewriteStats {
-  int replaced = 0;  // joints moved to the estimate
-  int repaired = 0;  // of which the runtime's position was garbage
+  int replaced = 0;       // joints moved to the estimate
+  int repaired = 0;       // of which the runtime's position was garbage
+  bool diverged = false;  // the estimate is not where the runtime's hand is: nothing replaced
 };
 
-RewriteStats rewrite_joints(const Answer& answer, double smoothing, const xr::Rigid& base_from_world,
-                            const BaseMotion& motion, XrHandJointLocationEXT* joints,
-                            XrHandJointVelocityEXT* velocities) noexcept;
+// Joints of the runtime's answer whose position no hand can have (non-finite, at the
+// exact origin or denormal, beyond 1 km, far from the rest of the hand), flagged tracked.
+using JointMask = std::array<bool, kJointCount>;
+JointMask garbage_joints(const XrHandJointLocationEXT* joints) noexcept;
 
-// A position the runtime cannot mean: non-finite, at the exact origin, or beyond 1 km.
-bool garbage_position(const XrVector3f& p) noexcept;
+// max_offset_m: an estimate whose hand centre is farther than this from the runtime's
+// (a hand re-acquired elsewhere that the engine has not seen yet) replaces nothing.
+// While the engine blends in after a (re)start (answer.weight < 1) its offset from the
+// runtime's joint is also capped at max_offset_m / 3 per joint: a cold engine's
+// prediction is not trusted. Garbage joints the estimate replaces are cleared from `garbage`.
+RewriteStats rewrite_joints(const Answer& answer, double smoothing, const xr::Rigid& base_from_world,
+                            const BaseMotion& motion, JointMask& garbage, double max_offset_m,
+                            XrHandJointLocationEXT* joints, XrHandJointVelocityEXT* velocities) noexcept;
+
+// What the app gets is never garbage, even where the layer passes the runtime through:
+// a garbage position becomes its nearest plausible ancestor's (valid, no longer tracked),
+// an unusable orientation its parent's (likewise), a non-finite or impossible velocity
+// loses its valid bit. Returns the number of joints changed.
+int repair_garbage(const JointMask& garbage, XrHandJointLocationEXT* joints, XrHandJointVelocityEXT* velocities) noexcept;
 
 }  // namespace hs::layer

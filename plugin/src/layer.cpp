@@ -70,7 +70,7 @@ void log_once(std::atomic<bool>& flag, LogLevel level, std::string_view msg) noe
 
 std::atomic<bool> g_logged_internal{false}, g_logged_world_space{false}, g_logged_locate_space{false},
     g_logged_world_locate{false}, g_logged_record{false}, g_logged_engine{false}, g_logged_space_garbage{false},
-    g_logged_latest{false}, g_logged_time{false}, g_logged_repaired{false};
+    g_logged_latest{false}, g_logged_time{false}, g_logged_repaired{false}, g_logged_garbage{false};
 
 // ---------------------------------------------------------------- state
 
@@ -336,7 +336,8 @@ bool locate_base(const InstanceData& inst, XrSpace world, XrSpace base, XrTime t
 
 // Replaces the runtime's answer in `out` (already filled for the app) by the engine's.
 // Returns without touching `out` whenever something needed is missing.
-void filter_answer(TrackerData& t, const XrHandJointsLocateInfoEXT& info, XrHandJointLocationsEXT& out) noexcept {
+void filter_answer(TrackerData& t, const XrHandJointsLocateInfoEXT& info, XrHandJointLocationsEXT& out,
+                   JointMask& garbage) noexcept {
   const InstanceData& inst = *t.inst;
   const auto* range =
       find_in_chain<XrHandJointsMotionRangeInfoEXT, XR_TYPE_HAND_JOINTS_MOTION_RANGE_INFO_EXT>(info.next);
@@ -408,8 +409,13 @@ void filter_answer(TrackerData& t, const XrHandJointsLocateInfoEXT& info, XrHand
   BaseMotion motion;
   if (!locate_base(inst, t.world, info.baseSpace, info.time, base_from_world, motion)) return;
   if (!motion.valid && same_time) motion.world_velocities = wvj.data();
-  const RewriteStats stats = rewrite_joints(answer, inst.tuning->smoothing(hand), base_from_world, motion,
-                                            out.jointLocations, app_vel ? app_vel->jointVelocities : nullptr);
+  // Where the runtime's hand is not where the engine's is (re-acquired elsewhere, not yet
+  // seen by the engine), the runtime's answer stands: no hand moves 8 cm beyond its
+  // prediction in one answer.
+  const double max_offset = 0.08 + 3.0 * static_cast<double>(std::max<XrTime>(info.time - stamp, 0)) * 1e-9;
+  const RewriteStats stats = rewrite_joints(answer, inst.tuning->smoothing(hand), base_from_world, motion, garbage,
+                                            max_offset, out.jointLocations,
+                                            app_vel ? app_vel->jointVelocities : nullptr);
   if (stats.repaired > 0)
     log_once(g_logged_repaired, LogLevel::Warn,
              "the runtime reported impossible joint positions as tracked: answered with the filter's estimate");
@@ -425,7 +431,15 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
       out->jointCount != XR_HAND_JOINT_COUNT_EXT)
     return res;
   try {
-    filter_answer(*t, *info, *out);
+    JointMask garbage = garbage_joints(out->jointLocations);
+    filter_answer(*t, *info, *out, garbage);
+    // Whatever the layer could not replace is never handed over as garbage.
+    auto* vel = find_in_chain<XrHandJointVelocitiesEXT, XR_TYPE_HAND_JOINT_VELOCITIES_EXT>(out->next);
+    if (vel && (vel->jointCount != XR_HAND_JOINT_COUNT_EXT || !vel->jointVelocities)) vel = nullptr;
+    if (repair_garbage(garbage, out->jointLocations, vel ? vel->jointVelocities : nullptr) > 0)
+      log_once(g_logged_garbage, LogLevel::Warn,
+               "the runtime reported impossible joint data as valid: positions replaced by a neighbour's (not "
+               "tracked), velocities marked invalid");
   } catch (...) {
     t->passthrough = true;
     log_once(g_logged_internal, LogLevel::Error, "internal failure while filtering: this tracker passes through");
@@ -625,8 +639,10 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateApiLayerInstance(const XrInstanceCreateInfo
     g_log_level = static_cast<int>(d->config.log_level);
     for (const auto& w : loaded.warnings) log(LogLevel::Warn, fmt::format("configuration: {} (ignored)", w));
     for (const auto& m : loaded.engine_messages) log(m.level, m.text);
-    d->tuning = std::make_unique<HandTuning>(
-        d->config, [](const std::string& w) { log(LogLevel::Warn, fmt::format("configuration: {} (ignored)", w)); });
+    d->tuning = std::make_unique<HandTuning>(d->config, [](const std::string& text, bool warning) {
+      if (warning) log(LogLevel::Warn, fmt::format("configuration: {} (ignored)", text));
+      else log(LogLevel::Info, text);
+    });
     if (!d->DestroyInstance || !d->LocateSpace || !d->CreateReferenceSpace || !d->DestroySpace) {
       log(LogLevel::Warn, "runtime lacks core space functions: passing everything through");
       d->config.mode = Mode::Off;

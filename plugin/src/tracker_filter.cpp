@@ -83,8 +83,13 @@ bool TrackerFilter::update(XrTime sample_time, const Pose* observed, XrTime quer
     return answer(query_time, nullptr, out);
   }
   // The app's sample as the engine will see it (gated), for the innovation correction.
-  Sample pending{sample_time, observed ? *observed : Pose()};
-  const bool usable = observed && gate_joints(pending.pose, limits_).usable();
+  Sample pending{sample_time, observed ? *observed : Pose(), Eigen::Vector3d::Zero()};
+  bool usable = false;
+  if (observed) {
+    const GateResult gate = gate_joints(pending.pose, limits_);
+    usable = gate.usable();
+    pending.centre = gate.centre;
+  }
   if (exec_ == Execution::Lockstep) {
     // Answer from the state before this sample, as the worker would when it keeps up.
     {
@@ -102,7 +107,7 @@ bool TrackerFilter::update(XrTime sample_time, const Pose* observed, XrTime quer
 void TrackerFilter::submit(XrTime t, const Pose& observed) noexcept {
   if (exec_ == Execution::Inline) {
     std::lock_guard lock(engine_mu_);
-    process(Sample{t, observed});
+    process(Sample{t, observed, Eigen::Vector3d::Zero()});
     return;
   }
   {
@@ -250,6 +255,11 @@ bool TrackerFilter::answer(XrTime q, const Sample* pending, Answer& out) const n
     if (!p.path_at(q, max_ahead_ns_, out.pose)) return false;
     Pose pred;
     if (pending && pending->t > p.t0 && p.path_at(pending->t, max_ahead_ns_, pred)) {
+      // A sample from a hand somewhere else (re-acquired, jumped): the published state is
+      // not about it. Pass the runtime through until the engine has restarted on it.
+      Pose moved = pred;
+      const Eigen::Vector3d was = gate_joints(moved, limits_).centre;
+      if (hand_jumped(was, pending->centre, static_cast<double>(pending->t - p.t0) * 1e-9, limits_)) return false;
       for (int j = 0; j < kJointCount; ++j) {
         const Eigen::RowVector3d d = pending->pose.row(j) - pred.row(j);
         if (d.allFinite() && out.pose.row(j).allFinite() && std::isfinite(p.gain[j])) out.pose.row(j) += p.gain[j] * d;

@@ -86,6 +86,7 @@ class TrackerFilter {
   struct Sample {
     XrTime t = 0;
     Pose pose;
+    Eigen::Vector3d centre = Eigen::Vector3d::Zero();  // the gate's median joint (pending samples)
   };
   static constexpr std::array<double, kJointCount> filled(double v) {
     std::array<double, kJointCount> a{};
