@@ -10,7 +10,7 @@ namespace hs::layer {
 namespace {
 constexpr XrSpaceLocationFlags kTracked = XR_SPACE_LOCATION_POSITION_VALID_BIT | XR_SPACE_LOCATION_POSITION_TRACKED_BIT;
 constexpr double kMaxSpeed = 50.0;         // m/s: no joint of a hand moves faster
-constexpr double kMaxAngularSpeed = 100.0;  // rad/s
+constexpr double kMaxAngularSpeed = 1000.0;  // rad/s: beyond noisy joint frames (tracker jitter over 2 cm bones)
 
 // Component-wise median of the usable rows of `p` (NaN when none).
 Eigen::Vector3d median_centre(const Pose& p) {
