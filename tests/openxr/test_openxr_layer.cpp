@@ -333,9 +333,9 @@ TEST_CASE("predict: error at the display time below the runtime's stale answer")
   }
 }
 
-// The layer's default engine, the shipped Multi-STGAE model (30 Hz) found in the source
-// tree, asked at 90 Hz: it runs interleaved streams (docs/STGAE.md "Streaming at any
-// rate"), so it must beat the raw replay here, not just give finite answers.
+// The layer's default engine, the shipped Multi-STGAE model (30 Hz) found through the
+// build tree's link to models/, asked at 90 Hz: it runs interleaved streams (docs/STGAE.md
+// "Streaming at any rate"), so it must beat the raw replay here, not just give finite answers.
 TEST_CASE("default engine (shipped model) at 90 Hz: denoise closer than raw, predict below the stale answer") {
   const TrackFiles f = make_tracks("shipped", 7.0);
   std::array<double, 2> one_stream{};

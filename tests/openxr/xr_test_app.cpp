@@ -69,7 +69,8 @@ void reset_env(const TrackFiles& files) {
   set_env("HANDSTEADY_SHIM_TRACK", files.noisy_csv.string());
   set_env("HANDSTEADY_SHIM_CLOCK", "sim:11.111111");
   // The layer-mechanics tests measure the classical engine; without this the layer would
-  // pick the shipped model from the source tree. test_openxr_stgae covers that default.
+  // pick the shipped model (through the build tree's link to models/). test_openxr_stgae
+  // covers that default.
   set_env("HANDSTEADY_METHOD", "oneeuro");
 }
 
