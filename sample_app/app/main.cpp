@@ -4,6 +4,7 @@
 // and HandSteady's, each with its ink: the index fingertip's trail while thumb tip and
 // index tip pinch. In a GLFW window when a display exists, else headless through OSMesa,
 // writing PNG frames, the final composite, the trajectory plot and a metrics summary.
+// On a headless session without frame timing (Monado's) it times its own frames.
 #include "handsteady/filters.hpp"
 #include "handsteady/ink.hpp"
 #include "handsteady/model_path.hpp"
@@ -35,6 +36,7 @@ struct Options {
   int frames_every = 0;
   int panel_width = 640, panel_height = 480;
   double predict_ms = 50.0;  // the plot's Multi-STGAE prediction from the raw joints; 0 = none
+  double fps = 90.0;         // frame rate when the runtime times no frames (headless session)
   bool window = false, headless = false;
 };
 
@@ -82,7 +84,9 @@ int run(const Options& opt) {
     return truth ? truth_t0 + static_cast<double>(T - opt.truth_epoch_ns) * 1e-9 : static_cast<double>(T) * 1e-9;
   };
 
-  hs::demo::XrHands xr({});
+  hs::demo::XrHandsOptions xr_options;
+  xr_options.fps = opt.fps;
+  hs::demo::XrHands xr(xr_options);
   fmt::print("demo: runtime '{}', raw side channel {}\n", xr.runtime_name(),
              xr.has_raw() ? "on (HandSteady layer active)" : "unavailable (layer not active): one panel");
 
@@ -217,6 +221,8 @@ int main(int argc, char** argv) {
   app.add_option("--predict-ms", opt.predict_ms,
                  "Plot and score a Multi-STGAE prediction this far ahead from the raw joints (0: none)")
       ->check(CLI::Range(0.0, 500.0))->capture_default_str();
+  app.add_option("--fps", opt.fps, "Frame rate when the runtime gives no display times (e.g. Monado's headless session)")
+      ->check(CLI::Range(1.0, 1000.0))->capture_default_str();
   auto* w = app.add_flag("--window", opt.window, "Open a GLFW window (default when a display exists)");
   app.add_flag("--headless", opt.headless, "Render offscreen through OSMesa even with a display")->excludes(w);
   CLI11_PARSE(app, argc, argv);
