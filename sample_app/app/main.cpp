@@ -13,6 +13,7 @@
 #include "handsteady/track_ops.hpp"
 #include "handsteady_render/context.hpp"
 #include "handsteady_render/renderer.hpp"
+#include "framing.hpp"
 #include "panel.hpp"
 #include "report.hpp"
 #include "xr_hands.hpp"
@@ -117,10 +118,17 @@ int run(const Options& opt) {
     rec[0] = {"app", "as received", {}, {}};
   }
 
-  // One frame: a panel per view, labelled, with its ink and hand.
+  // One frame: a panel per view, labelled, with its ink and hand, the camera framing
+  // every joint seen so far.
+  hs::demo::ViewFraming framing(scene);
+  bool reframed = false;
   XrTime first_T = 0, last_seen_T = 0, last_T = 0;
   auto draw = [&](XrTime T, const std::vector<hs::Pose>& poses) {
     last_T = T;
+    if (!reframed && framing.reframed(viewports.front().aspect())) {
+      reframed = true;
+      fmt::print("demo: joints outside the default view: the camera backs off to show them\n");
+    }
     renderer.begin_frame(Color::rgb8(210, 210, 205));
     for (int p = 0; p < panels; ++p) {
       const auto& ir = ink[static_cast<size_t>(p)];
@@ -132,7 +140,8 @@ int run(const Options& opt) {
       c.ink = &ir.strokes();
       c.hand = &poses[static_cast<size_t>(p)];
       c.pen_down = ir.pen_down();
-      hs::demo::draw_panel(renderer, viewports[static_cast<size_t>(p)], scene, c);
+      const auto& vp = viewports[static_cast<size_t>(p)];
+      hs::demo::draw_panel(renderer, vp, framing.camera(vp.aspect()), scene, c);
     }
   };
   std::vector<hs::Pose> last_poses(static_cast<size_t>(panels), hs::untracked_pose());
@@ -148,6 +157,7 @@ int run(const Options& opt) {
       const bool raw = panels == 2 && p == 0;
       poses[static_cast<size_t>(p)] = xr.locate(hs::Hand::Right, T, raw);
       const hs::Pose& pose = poses[static_cast<size_t>(p)];
+      framing.add(pose);
       if (hs::any_joint_tracked(pose)) {
         any = true;
         if (rec[static_cast<size_t>(p)].seen.t.empty() || t > rec[static_cast<size_t>(p)].seen.t.back()) {

@@ -199,6 +199,27 @@ TEST_CASE("demo: on a headless session that times no frames (Monado's) the app t
   fs::remove_all(dir);
 }
 
+TEST_CASE("demo: a hand far outside the default view is framed and drawn, the text still in view") {
+  const fs::path dir = hs::test::temp_dir("demo_framing");
+  const fs::path track = make_track(dir, "none", "L");
+  // The hand (noisy and clean) 0.8 m right and 0.5 m up of where it writes, the text
+  // where it was: the default view, set by the text, shows no joint.
+  for (const char* name : {"hw.csv", "hw_clean.csv"}) {
+    hs::Track t = hs::read_track_csv(dir / name);
+    for (hs::TrackRow& row : t.rows) row.pos.rowwise() += Eigen::RowVector3d(0.8, 0.5, 0.0);
+    hs::write_track_csv(t, dir / name);
+  }
+  REQUIRE(run_demo(track, dir / "out", "HANDSTEADY_MODE=denoise HANDSTEADY_METHOD=oneeuro") == 0);
+  CHECK(read_text(dir / "out.log").find("the camera backs off") != std::string::npos);
+  const hs::render::Image img = hs::render::read_png(dir / "out" / "composite.png");
+  const int half = img.width / 2;
+  for (const auto& [x0, x1] : {std::pair{0, half}, std::pair{half, img.width}}) {
+    CHECK(count_color(img, kJointOrange, x0, x1) > 100);            // the hand
+    CHECK(count_color(img, {200, 200, 215, 255}, x0, x1, 8) > 50);  // the font's guide strokes
+  }
+  fs::remove_all(dir);
+}
+
 TEST_CASE("demo: a bad HANDSTEADY_SHIM_FRAMES is named by the replay runtime") {
   const fs::path dir = hs::test::temp_dir("demo_bad_frames");
   const fs::path track = make_track(dir, "none", "L");
