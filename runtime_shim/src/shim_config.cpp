@@ -53,6 +53,12 @@ ShimConfig shim_config_from_env() {
     else if (kind != "sim") throw std::invalid_argument("HANDSTEADY_SHIM_CLOCK: expected sim:<ms> or real[:<ms>], got '" + s + "'");
     if (colon != std::string::npos) c.period_ns = parse_ms(s.substr(colon + 1), "HANDSTEADY_SHIM_CLOCK");
   }
+  if (std::string s = env("HANDSTEADY_SHIM_EPOCH_MS"); !s.empty()) {
+    // 0 and small values are what Monado gives (its clock starts at instance creation).
+    const double ms = parse_number(s, "HANDSTEADY_SHIM_EPOCH_MS");
+    if (!(ms >= 0.0 && ms < 1e12)) throw std::invalid_argument("HANDSTEADY_SHIM_EPOCH_MS: out of range: '" + s + "'");
+    c.epoch_ns = static_cast<int64_t>(ms * 1e6 + 0.5);
+  }
   if (std::string s = env("HANDSTEADY_SHIM_LATENCY_MS"); !s.empty()) {
     const double ms = parse_number(s, "HANDSTEADY_SHIM_LATENCY_MS");
     if (!(ms >= 0.0 && ms < 10'000.0)) throw std::invalid_argument("HANDSTEADY_SHIM_LATENCY_MS: out of range");
@@ -83,6 +89,11 @@ ShimConfig shim_config_from_env() {
     } else {
       throw std::invalid_argument("HANDSTEADY_SHIM_FUTURE: expected exact, hold, latest or extrapolate[:hz:ms], got '" + s + "'");
     }
+  }
+  if (std::string s = env("HANDSTEADY_SHIM_FRAMES"); !s.empty()) {
+    if (s == "normal") c.frames = FrameMode::Normal;
+    else if (s == "headless-zero") c.frames = FrameMode::HeadlessZero;
+    else throw std::invalid_argument("HANDSTEADY_SHIM_FRAMES: expected normal or headless-zero, got '" + s + "'");
   }
   c.head_motion = env("HANDSTEADY_SHIM_HEAD_MOTION") == "1";
 

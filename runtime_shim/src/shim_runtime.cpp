@@ -66,6 +66,7 @@ struct Runtime {
   XrTime epoch = kSimEpochNs;  // XrTime of t0
   XrTime sim_now = kSimEpochNs;
   XrTime mono_at_tick = 0;     // sim clock: CLOCK_MONOTONIC when sim_now last advanced
+  int64_t real_offset = 0;     // real clock: XrTime = CLOCK_MONOTONIC - real_offset
   uint64_t next_handle = 0x100;
   std::map<uint64_t, SessionData> sessions;
   std::map<uint64_t, SpaceData> spaces;
@@ -89,12 +90,12 @@ XrTime monotonic_ns() {
 }
 
 // Current runtime time (caller holds the lock).
-XrTime now_locked(const Runtime& r) { return r.cfg.real_clock ? monotonic_ns() : r.sim_now; }
+XrTime now_locked(const Runtime& r) { return r.cfg.real_clock ? monotonic_ns() - r.real_offset : r.sim_now; }
 
 // A CLOCK_MONOTONIC time as this runtime's XrTime. Sim clock: sim_now plus the real time
 // since it last advanced, at most one period (a frame's worth of real time maps into it).
 XrTime monotonic_to_xr(const Runtime& r, XrTime mono) {
-  if (r.cfg.real_clock) return mono;
+  if (r.cfg.real_clock) return mono - r.real_offset;
   return r.sim_now + std::clamp<XrTime>(mono - r.mono_at_tick, 0, r.cfg.period_ns - 1);
 }
 
@@ -283,7 +284,9 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateInstance(const XrInstanceCreateInfo* info, 
   for (const auto& s : r.hands)
     if (!s.empty()) t0 = std::min(t0, s.t.front());
   r.t0 = std::isfinite(t0) ? t0 : 0.0;
-  r.epoch = r.cfg.real_clock ? monotonic_ns() : kSimEpochNs;
+  const XrTime mono = monotonic_ns();
+  r.epoch = r.cfg.epoch_ns.value_or(r.cfg.real_clock ? mono : kSimEpochNs);
+  r.real_offset = mono - r.epoch;
   r.sim_now = r.epoch;
   r.mono_at_tick = monotonic_ns();
   r.ext_hand = hand;
@@ -360,7 +363,8 @@ XRAPI_ATTR XrResult XRAPI_CALL ConvertTimespecTimeToTimeKHR(XrInstance instance,
   std::lock_guard lock(r.mu);
   if (!instance_ok(r, instance)) return XR_ERROR_HANDLE_INVALID;
   if (!ts || !time) return XR_ERROR_VALIDATION_FAILURE;
-  // XrTime counts nanoseconds of CLOCK_MONOTONIC (real clock) or of the simulated clock.
+  // XrTime counts nanoseconds of CLOCK_MONOTONIC (real clock, less the epoch's offset) or
+  // of the simulated clock.
   *time = monotonic_to_xr(r, static_cast<XrTime>(ts->tv_sec) * 1'000'000'000 + ts->tv_nsec);
   return *time > 0 ? XR_SUCCESS : XR_ERROR_TIME_INVALID;
 }
@@ -370,9 +374,10 @@ XRAPI_ATTR XrResult XRAPI_CALL ConvertTimeToTimespecTimeKHR(XrInstance instance,
   if (!instance_ok(r, instance)) return XR_ERROR_HANDLE_INVALID;
   if (!ts) return XR_ERROR_VALIDATION_FAILURE;
   if (time <= 0) return XR_ERROR_TIME_INVALID;
-  if (!r.cfg.real_clock) time = r.mono_at_tick + (time - r.sim_now);  // the inverse mapping
-  ts->tv_sec = static_cast<time_t>(time / 1'000'000'000);
-  ts->tv_nsec = static_cast<long>(time % 1'000'000'000);
+  // The inverse mapping.
+  const int64_t ns = r.cfg.real_clock ? time + r.real_offset : r.mono_at_tick + (time - r.sim_now);
+  ts->tv_sec = static_cast<time_t>(ns / 1'000'000'000);
+  ts->tv_nsec = static_cast<long>(ns % 1'000'000'000);
   return XR_SUCCESS;
 }
 
@@ -514,19 +519,31 @@ XRAPI_ATTR XrResult XRAPI_CALL WaitFrame(XrSession session, const XrFrameWaitInf
   if ((info && info->type != XR_TYPE_FRAME_WAIT_INFO) || !state || state->type != XR_TYPE_FRAME_STATE)
     return XR_ERROR_VALIDATION_FAILURE;
   if (!s->running) return XR_ERROR_SESSION_NOT_RUNNING;
+  if (r.cfg.frames == FrameMode::HeadlessZero) {
+    // Monado's headless session (no compositor): xrWaitFrame returns at once, without
+    // pacing, and gives no times; no frame counts as waited, so xrBeginFrame and then
+    // xrEndFrame fail with XR_ERROR_CALL_ORDER_INVALID. The app times itself
+    // (xrConvertTimespecTimeToTimeKHR). The simulated clock still runs.
+    if (!r.cfg.real_clock) r.sim_now += r.cfg.period_ns;
+    state->predictedDisplayTime = 0;
+    state->predictedDisplayPeriod = 0;
+    state->shouldRender = XR_FALSE;
+    return XR_SUCCESS;
+  }
   XrTime now = 0;
   if (r.cfg.real_clock) {
     // Sleep to the next period boundary since the epoch (without holding the lock).
     const int64_t period = r.cfg.period_ns;
     const XrTime epoch = r.epoch;
+    const int64_t offset = r.real_offset;
     lock.unlock();
-    const XrTime t = monotonic_ns();
+    const XrTime t = monotonic_ns() - offset;
     const XrTime next = epoch + ((t - epoch) / period + 1) * period;
     std::this_thread::sleep_for(std::chrono::nanoseconds(next - t));
     lock.lock();
     s = find_session(r, session);
     if (!s) return XR_ERROR_HANDLE_INVALID;
-    now = monotonic_ns();
+    now = now_locked(r);
   } else {
     r.sim_now += r.cfg.period_ns;
     r.mono_at_tick = monotonic_ns();
