@@ -7,6 +7,9 @@
 #include <limits>
 #include <numbers>
 
+#include <pthread.h>
+#include <sched.h>
+
 namespace hs::layer {
 namespace {
 
@@ -60,7 +63,14 @@ TrackerFilter::TrackerFilter(std::unique_ptr<PoseFilter> engine, double reset_ga
       front_(std::make_unique<Published>()) {
   state_->step = (max_ahead_ns_ + kKnots - 2) / (kKnots - 1);
   state_->velocity.setConstant(kNaN);
-  if (exec_ != Execution::Inline) worker_ = std::thread([this] { run_worker(); });
+  if (exec_ != Execution::Inline) {
+    worker_ = std::thread([this] { run_worker(); });
+    // A batch thread does not preempt the thread that wakes it: the app's call returns
+    // before the worker takes the core (2-core machines, busy headset CPUs).
+    sched_param param{};
+    param.sched_priority = 0;
+    pthread_setschedparam(worker_.native_handle(), SCHED_BATCH, &param);
+  }
 }
 
 TrackerFilter::TrackerFilter(const LayerConfig& config)
@@ -91,17 +101,14 @@ bool TrackerFilter::update(XrTime sample_time, const Pose* observed, XrTime quer
     pending.centre = gate.centre;
   }
   if (exec_ == Execution::Lockstep) {
-    // Answer from the state before this sample, as the worker would when it keeps up.
-    {
-      std::unique_lock lock(in_mu_);
-      idle_cv_.wait(lock, [&] { return (q_count_ == 0 && !busy_) || stop_; });
-    }
-    const bool ok = answer(query_time, usable ? &pending : nullptr, out);
-    if (observed) submit(sample_time, *observed);
-    return ok;
+    // The state the worker has when it keeps up: every earlier sample processed.
+    std::unique_lock lock(in_mu_);
+    idle_cv_.wait(lock, [&] { return (q_count_ == 0 && !busy_) || stop_; });
   }
+  // Answer first, then wake the worker: the answer never waits for it.
+  const bool ok = answer(query_time, usable ? &pending : nullptr, out);
   if (observed) submit(sample_time, *observed);
-  return answer(query_time, usable ? &pending : nullptr, out);
+  return ok;
 }
 
 void TrackerFilter::submit(XrTime t, const Pose& observed) noexcept {

@@ -4,16 +4,23 @@
 // The layer runs its default engine (the shipped model when found) unless HS_BENCH_METHOD
 // names one (raw, oneeuro, desp, kalman, stgae); HS_BENCH_ISA=baseline keeps the layer's
 // baseline build (default: its x86-64-v3 build where the CPU has it); HS_BENCH_PHASES=K
-// sets HANDSTEADY_STGAE_PHASES (Multi-STGAE streams per tracker).
+// sets HANDSTEADY_STGAE_PHASES (Multi-STGAE streams per tracker); HS_BENCH_WORKER sets
+// HANDSTEADY_WORKER (default: auto, the network on the layer's worker thread);
+// HS_BENCH_LOAD=1 runs a CPU-bound thread beside the app the whole time (a headset app's
+// CPU is rarely idle). The runtime runs a real 90 Hz clock, so the worker has the time a
+// real frame gives it (HS_BENCH_CLOCK=sim: frames back to back, as before).
 //   HS_BENCH_FRAMES=3000 xr_layer_bench
 #include "xr_test_app.hpp"
 
 #include <doctest/doctest.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
+#include <thread>
 #include <cstdio>
 #include <cstdlib>
+#include <string>
 #include <vector>
 
 using namespace hs::xrtest;
@@ -59,14 +66,31 @@ TEST_CASE("layer overhead per xrLocateHandJointsEXT call") {
   else unset_env("HANDSTEADY_METHOD");
   if (const char* isa = std::getenv("HS_BENCH_ISA"); isa && *isa) set_env("HANDSTEADY_ISA", isa);
   if (const char* k = std::getenv("HS_BENCH_PHASES"); k && *k) set_env("HANDSTEADY_STGAE_PHASES", k);
+  if (const char* w = std::getenv("HS_BENCH_WORKER"); w && *w) set_env("HANDSTEADY_WORKER", w);
+  const char* clock = std::getenv("HS_BENCH_CLOCK");
+  const bool sim = clock && std::string(clock) == "sim";
+  if (!sim) set_env("HANDSTEADY_SHIM_CLOCK", "real:11.111111");
   set_env("HANDSTEADY_SHIM_HEAD_MOTION", "1");
+  const char* load_env = std::getenv("HS_BENCH_LOAD");
+  const bool load = load_env && std::string(load_env) == "1";
+  std::atomic<bool> stop{false};
+  std::thread spinner;
+  if (load)
+    spinner = std::thread([&] {
+      volatile double x = 1.0;
+      while (!stop.load(std::memory_order_relaxed)) x = x * 1.0000001 + 1e-9;
+    });
   const auto off = measure(g_frames);
   enable_layers({kLayer});
   const auto on = measure(g_frames);
-  std::printf("xrLocateHandJointsEXT, %zu calls each (us):\n", on.size());
+  stop = true;
+  if (spinner.joinable()) spinner.join();
+  std::printf("xrLocateHandJointsEXT, %zu calls each (us), %s clock, worker %s, %s:\n", on.size(),
+              sim ? "simulated" : "real 90 Hz", std::getenv("HS_BENCH_WORKER") ? std::getenv("HS_BENCH_WORKER") : "auto",
+              load ? "one CPU-bound thread beside the app" : "no competing load");
   std::printf("  without layer: p50 %.2f  p99 %.2f\n", pct(off, 0.5), pct(off, 0.99));
   std::printf("  with layer:    p50 %.2f  p99 %.2f\n", pct(on, 0.5), pct(on, 0.99));
-  std::printf("  added:         p50 %.2f  p99 %.2f  (target p99 <= 300)\n", pct(on, 0.5) - pct(off, 0.5),
+  std::printf("  added:         p50 %.2f  p99 %.2f  (target p99 <= 50 with the worker)\n", pct(on, 0.5) - pct(off, 0.5),
               pct(on, 0.99) - pct(off, 0.99));
   CHECK(on.size() == off.size());
 }

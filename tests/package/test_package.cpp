@@ -149,6 +149,7 @@ void package_env(const TrackFiles& f, const fs::path& usr) {
   reset_env(f);                      // no build-tree layer path, no system implicit layers
   unset_env("HANDSTEADY_METHOD");    // the layer's default: the shipped model
   set_env("HANDSTEADY_LOG", "info");  // the layer logs the model it loaded
+  set_env("HANDSTEADY_WORKER", "lockstep");  // simulated clock: the worker's real-time answers
   set_env("XR_RUNTIME_JSON", (usr / "share/handsteady/handsteady_replay_runtime.json").string());
 }
 
