@@ -41,6 +41,7 @@ GateResult gate_joints(Pose& pose, const GateLimits& limits) noexcept {
   if (n < limits.min_joints) {
     r.rejected += n;
     n = 0;
+    ok.fill(false);
     centre.setConstant(nan);
   }
   for (int j = 0; j < kJointCount; ++j)

@@ -1,0 +1,232 @@
+// The layer's parts below the dispatch, without the loader: the plausibility gate, the
+// runtime time-semantics probe, the per-tracker filter state (restart rules, blend-in,
+// the worker hand-off) and the pure joint rewrite.
+#include "handsteady/filters.hpp"
+#include "joint_gate.hpp"
+#include "joint_rewrite.hpp"
+#include "runtime_semantics.hpp"
+#include "test_support.hpp"
+#include "tracker_filter.hpp"
+
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <limits>
+
+using namespace hs;
+using namespace hs::layer;
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// The synthetic hand 0.4 m in front of the origin (no joint near the origin).
+Pose hand_at(double x, double y = 0.0) {
+  Pose p = test::synthetic_hand();
+  for (int j = 0; j < kJointCount; ++j) p.row(j) += Eigen::RowVector3d(x, y, -0.4);
+  return p;
+}
+
+std::unique_ptr<TrackerFilter> one_euro_filter(Execution exec) {
+  FilterConfig c;
+  c.method = FilterMethod::OneEuro;
+  return std::make_unique<TrackerFilter>(make_filter(c), 0.5, 0.1, exec);
+}
+
+constexpr XrTime kPeriod = 11'111'111;
+
+}  // namespace
+
+TEST_CASE("gate: origin, denormal, NaN, 1e30 and stray joints are marked missing; too few joints is no hand") {
+  Pose p = hand_at(0.1);
+  p.row(3).setZero();
+  p.row(4) << 1e-40, 0.0, -1e-40;
+  p.row(5) << kNaN, 0.0, 0.0;
+  p.row(6).setConstant(1e30);
+  p.row(7) += Eigen::RowVector3d(0.5, 0.0, 0.0);  // half a metre from its hand
+  const GateResult g = gate_joints(p);
+  CHECK(g.kept == kJointCount - 5);
+  CHECK(g.rejected == 4);  // the NaN joint was missing already
+  for (int j : {3, 4, 5, 6, 7}) CHECK_FALSE(joint_tracked(p, j));
+  CHECK(joint_tracked(p, 8));
+  CHECK(g.usable());
+  CHECK((g.centre - Eigen::Vector3d(hand_at(0.1).colwise().mean().transpose())).norm() < 0.05);
+
+  Pose few = untracked_pose();
+  for (int j = 0; j < 5; ++j) few.row(j) = hand_at(0.0).row(j);
+  CHECK_FALSE(gate_joints(few).usable());
+  CHECK_FALSE(any_joint_tracked(few));
+}
+
+TEST_CASE("gate: a hand moving faster than any hand, or back from a loss elsewhere, jumped") {
+  const Eigen::Vector3d a(0.0, 0.0, -0.4);
+  CHECK_FALSE(hand_jumped(a, a + Eigen::Vector3d(0.02, 0, 0), 0.011));  // 1.8 m/s
+  CHECK(hand_jumped(a, a + Eigen::Vector3d(0.3, 0, 0), 0.011));          // 27 m/s
+  CHECK_FALSE(hand_jumped(a, a + Eigen::Vector3d(0.02, 0, 0), 0.3));    // back from a loss, where it was
+  CHECK(hand_jumped(a, a + Eigen::Vector3d(0.3, 0, 0), 0.3));           // back 30 cm away
+  CHECK_FALSE(hand_jumped(Eigen::Vector3d::Constant(kNaN), a, 0.011));  // nothing to compare
+}
+
+TEST_CASE("semantics probe: identical answers 25 ms apart while moving mean latest pose; a still hand proves nothing") {
+  SemanticsProbe probe;
+  const Pose a = hand_at(0.0), b = hand_at(0.01);
+  CHECK(probe.semantics() == TimeSemantics::History);
+  for (int i = 0; i < 20; ++i) probe.vote(a, a, false);  // still: no votes
+  CHECK(probe.votes() == 0);
+  for (int i = 0; i < 5; ++i) probe.vote(a, a, true);
+  CHECK(probe.semantics() == TimeSemantics::Latest);
+  for (int i = 0; i < 5; ++i) probe.vote(a, b, true);
+  CHECK(probe.semantics() == TimeSemantics::History);  // the window moves on
+  int due = 0;
+  for (int i = 0; i < 64; ++i) due += probe.due() ? 1 : 0;
+  CHECK(due == 1);  // every 64th call once it has a full window
+  CHECK(same_pose(a, a));
+  CHECK_FALSE(same_pose(a, b));
+}
+
+TEST_CASE("tracker filter: first answer is the runtime's (weight 0), blends in, restarts on a jump and a time reset") {
+  auto f = one_euro_filter(Execution::Inline);
+  Answer out;
+  XrTime t = 10'000'000'000;
+  Pose p = hand_at(0.0);
+  REQUIRE(f->update(t, &p, t, out));
+  CHECK(out.weight == 0.0);
+  for (int i = 1; i <= 30; ++i) {
+    t += kPeriod;
+    p = hand_at(0.001 * i);
+    REQUIRE(f->update(t, &p, t, out));
+  }
+  CHECK(out.weight == 1.0);  // 0.33 s > the blend time
+  // A jump of 30 cm in one period restarts: weight 0 again, the estimate is the new input.
+  t += kPeriod;
+  p = hand_at(0.33);
+  REQUIRE(f->update(t, &p, t, out));
+  CHECK(out.weight == 0.0);
+  CHECK((out.pose - p).norm() < 1e-9);
+  // Repeats and a little older: not new samples; far older once: ignored; three times: restart.
+  const XrTime last = t;
+  REQUIRE(f->update(last, &p, last, out));
+  Pose q = hand_at(0.34);
+  CHECK(f->update(last - 2'000'000'000, &q, last, out));
+  CHECK(f->update(last - 2'000'000'000 + kPeriod, &q, last, out));
+  CHECK((out.pose - p).norm() < 1e-9);  // still the state of `last`
+  CHECK(f->update(last - 2'000'000'000 + 2 * kPeriod, &q, last - 2'000'000'000 + 2 * kPeriod, out));
+  CHECK(out.weight == 0.0);  // restarted on the new time base
+  CHECK((out.pose - q).norm() < 1e-9);
+}
+
+TEST_CASE("tracker filter: answers ahead only as far as the path reaches; older times from the history") {
+  auto f = one_euro_filter(Execution::Inline);
+  Answer out;
+  XrTime t = 1'000'000'000;
+  for (int i = 0; i < 20; ++i, t += kPeriod) {
+    const Pose p = hand_at(0.001 * i);
+    REQUIRE(f->update(t, &p, t, out));
+  }
+  const XrTime newest = t - kPeriod;
+  CHECK(f->update(newest, nullptr, newest + 50'000'000, out));
+  CHECK_FALSE(f->update(newest, nullptr, newest + 500'000'000, out));  // 0.5 s ahead: pass through
+  CHECK(f->update(newest, nullptr, newest - 5 * kPeriod, out));         // in the history
+  CHECK_FALSE(f->update(newest, nullptr, newest - 60 * kPeriod, out));  // older than the history
+  CHECK_FALSE(f->update(newest, nullptr, 0, out));
+  CHECK_FALSE(f->update(newest, nullptr, std::numeric_limits<XrTime>::max(), out));
+}
+
+TEST_CASE("tracker filter: the worker's answers equal lockstep's and hide the hand-off with the innovation") {
+  // The same stream through Lockstep and through Inline: lockstep answers from the state
+  // before each sample, moved by the learned gain times the innovation; on a ramp with
+  // noise its error stays close to inline's and far below the one-sample-stale state's.
+  auto inline_f = one_euro_filter(Execution::Inline);
+  auto lock_f = one_euro_filter(Execution::Lockstep);
+  Answer a, b;
+  double err_inline = 0.0, err_lock = 0.0, err_stale = 0.0;
+  XrTime t = 1'000'000'000;
+  Pose prev_est = hand_at(0.0);
+  uint64_t seed = 1;
+  auto noise = [&] {
+    seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+    return (static_cast<double>(seed >> 11) * 0x1.0p-53 - 0.5) * 0.004;
+  };
+  for (int i = 0; i < 300; ++i, t += kPeriod) {
+    const double x = 0.5 * static_cast<double>(i) * 0.011;  // 0.5 m/s
+    Pose p = hand_at(x);
+    const Pose truth = p;
+    for (int j = 0; j < kJointCount; ++j) p(j, 0) += noise();
+    REQUIRE(inline_f->update(t, &p, t, a));
+    const bool ok = lock_f->update(t, &p, t, b);
+    if (i < 60) {
+      prev_est = a.pose;
+      continue;
+    }
+    REQUIRE(ok);
+    CHECK(b.corrected);
+    err_inline += (a.pose - truth).rowwise().norm().mean();
+    err_lock += (b.pose - truth).rowwise().norm().mean();
+    err_stale += (prev_est - truth).rowwise().norm().mean();
+    prev_est = a.pose;
+  }
+  MESSAGE("inline " << err_inline / 240 * 1e3 << " mm, lockstep " << err_lock / 240 * 1e3 << " mm, one sample stale "
+                    << err_stale / 240 * 1e3 << " mm");
+  CHECK(err_lock < 1.25 * err_inline);
+  CHECK(err_lock < 0.7 * err_stale);
+}
+
+TEST_CASE("joint rewrite: weight, smoothing and garbage; an estimate elsewhere replaces nothing") {
+  std::array<XrHandJointLocationEXT, kJointCount> joints{};
+  const Pose raw = hand_at(0.0);
+  for (int j = 0; j < kJointCount; ++j) {
+    joints[j].locationFlags = XR_SPACE_LOCATION_POSITION_VALID_BIT | XR_SPACE_LOCATION_POSITION_TRACKED_BIT |
+                              XR_SPACE_LOCATION_ORIENTATION_VALID_BIT | XR_SPACE_LOCATION_ORIENTATION_TRACKED_BIT;
+    joints[j].pose.position = xr::to_xr(Eigen::Vector3d(raw.row(j).transpose()));
+    joints[j].pose.orientation = {0, 0, 0, 1};
+  }
+  joints[9].pose.position = {0.0f, 0.0f, 0.0f};  // garbage flagged tracked
+  Answer ans;
+  ans.pose = hand_at(0.004);
+  ans.velocity.setConstant(0.0);
+  ans.weight = 1.0;
+  const xr::Rigid identity = xr::Rigid::Identity();
+  auto copy = joints;
+  JointMask garbage = garbage_joints(copy.data());
+  CHECK(garbage[9]);
+  CHECK(std::count(garbage.begin(), garbage.end(), true) == 1);
+  const RewriteStats s = rewrite_joints(ans, 0.5, identity, BaseMotion{}, garbage, 0.08, copy.data(), nullptr);
+  CHECK(s.replaced == kJointCount);
+  CHECK(s.repaired == 1);
+  CHECK_FALSE(garbage[9]);
+  CHECK(copy[0].pose.position.x == doctest::Approx(raw(0, 0) + 0.002));  // halfway (smoothing 0.5)
+  CHECK(copy[9].pose.position.x == doctest::Approx(ans.pose(9, 0)));     // garbage: the estimate whole
+
+  // An estimate 30 cm away (a hand re-acquired elsewhere): nothing replaced, garbage repaired.
+  ans.pose = hand_at(0.3);
+  copy = joints;
+  garbage = garbage_joints(copy.data());
+  const RewriteStats far = rewrite_joints(ans, 1.0, identity, BaseMotion{}, garbage, 0.08, copy.data(), nullptr);
+  CHECK(far.diverged);
+  CHECK(far.replaced == 0);
+  CHECK(repair_garbage(garbage, copy.data(), nullptr) == 1);
+  CHECK(xr::to_eigen(copy[9].pose.position).norm() > 0.1);  // a neighbour's position, not the origin
+  CHECK((copy[9].locationFlags & XR_SPACE_LOCATION_POSITION_TRACKED_BIT) == 0);
+  CHECK((copy[9].locationFlags & XR_SPACE_LOCATION_POSITION_VALID_BIT) != 0);
+}
+
+TEST_CASE("repair: non-finite or impossible velocities lose their valid bit") {
+  std::array<XrHandJointLocationEXT, kJointCount> joints{};
+  std::array<XrHandJointVelocityEXT, kJointCount> vel{};
+  const Pose raw = hand_at(0.0);
+  for (int j = 0; j < kJointCount; ++j) {
+    joints[j].pose.position = xr::to_xr(Eigen::Vector3d(raw.row(j).transpose()));
+    joints[j].pose.orientation = {0, 0, 0, 1};
+    vel[j].velocityFlags = XR_SPACE_VELOCITY_LINEAR_VALID_BIT | XR_SPACE_VELOCITY_ANGULAR_VALID_BIT;
+  }
+  vel[2].linearVelocity = {1e6f, 0.f, 0.f};
+  vel[3].linearVelocity = {std::numeric_limits<float>::quiet_NaN(), 0.f, 0.f};
+  vel[4].angularVelocity = {0.f, std::numeric_limits<float>::infinity(), 0.f};
+  const JointMask none{};
+  CHECK(repair_garbage(none, joints.data(), vel.data()) == 3);
+  CHECK((vel[2].velocityFlags & XR_SPACE_VELOCITY_LINEAR_VALID_BIT) == 0);
+  CHECK((vel[3].velocityFlags & XR_SPACE_VELOCITY_LINEAR_VALID_BIT) == 0);
+  CHECK((vel[4].velocityFlags & XR_SPACE_VELOCITY_ANGULAR_VALID_BIT) == 0);
+  CHECK((vel[4].velocityFlags & XR_SPACE_VELOCITY_LINEAR_VALID_BIT) != 0);
+  CHECK(vel[5].velocityFlags == (XR_SPACE_VELOCITY_LINEAR_VALID_BIT | XR_SPACE_VELOCITY_ANGULAR_VALID_BIT));
+}
