@@ -181,8 +181,10 @@ TEST_CASE("joint rewrite: weight, smoothing and garbage; an estimate elsewhere r
     joints[j].pose.orientation = {0, 0, 0, 1};
   }
   joints[9].pose.position = {0.0f, 0.0f, 0.0f};  // garbage flagged tracked
+  auto centre = [](Pose p) { return gate_joints(p).centre; };
   Answer ans;
   ans.pose = hand_at(0.004);
+  ans.centre = centre(ans.pose);
   ans.velocity.setConstant(0.0);
   ans.weight = 1.0;
   const xr::Rigid identity = xr::Rigid::Identity();
@@ -199,6 +201,7 @@ TEST_CASE("joint rewrite: weight, smoothing and garbage; an estimate elsewhere r
 
   // An estimate 30 cm away (a hand re-acquired elsewhere): nothing replaced, garbage repaired.
   ans.pose = hand_at(0.3);
+  ans.centre = centre(ans.pose);
   copy = joints;
   garbage = garbage_joints(copy.data());
   const RewriteStats far = rewrite_joints(ans, 1.0, identity, BaseMotion{}, garbage, 0.08, copy.data(), nullptr);

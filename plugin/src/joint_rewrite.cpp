@@ -87,14 +87,12 @@ RewriteStats rewrite_joints(const Answer& answer, double smoothing, const xr::Ri
   RewriteStats stats;
   {
     // The estimate must be about the hand the runtime shows.
-    Pose est_base, raw_base;
-    for (int j = 0; j < kJointCount; ++j) {
-      est_base.row(j) = (base_from_world * Eigen::Vector3d(answer.pose.row(j).transpose())).transpose();
+    Pose raw_base;
+    for (int j = 0; j < kJointCount; ++j)
       raw_base.row(j) = bad[j] || (joints[j].locationFlags & tracked) != tracked
                             ? Eigen::RowVector3d::Constant(std::nan(""))
                             : Eigen::RowVector3d(xr::to_eigen(joints[j].pose.position).transpose());
-    }
-    const Eigen::Vector3d a = median_centre(est_base), b = median_centre(raw_base);
+    const Eigen::Vector3d a = base_from_world * answer.centre, b = median_centre(raw_base);
     if (a.allFinite() && b.allFinite() && (a - b).norm() > max_offset_m) {
       stats.diverged = true;
       return stats;

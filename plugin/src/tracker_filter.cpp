@@ -234,6 +234,7 @@ void TrackerFilter::process(const Sample& s) noexcept {
   st.path[0] = est;
   for (int k = 1; k < kKnots; ++k) engine_->estimate(seconds(s.t + k * st.step), st.path[k]);
   st.t0 = s.t;
+  st.centre = gate.centre;
   st.valid = true;
   publish();
 }
@@ -264,9 +265,7 @@ bool TrackerFilter::answer(XrTime q, const Sample* pending, Answer& out) const n
     if (pending && pending->t > p.t0 && p.path_at(pending->t, max_ahead_ns_, pred)) {
       // A sample from a hand somewhere else (re-acquired, jumped): the published state is
       // not about it. Pass the runtime through until the engine has restarted on it.
-      Pose moved = pred;
-      const Eigen::Vector3d was = gate_joints(moved, limits_).centre;
-      if (hand_jumped(was, pending->centre, static_cast<double>(pending->t - p.t0) * 1e-9, limits_)) return false;
+      if (hand_jumped(p.centre, pending->centre, static_cast<double>(pending->t - p.t0) * 1e-9, limits_)) return false;
       for (int j = 0; j < kJointCount; ++j) {
         const Eigen::RowVector3d d = pending->pose.row(j) - pred.row(j);
         if (d.allFinite() && out.pose.row(j).allFinite() && std::isfinite(p.gain[j])) out.pose.row(j) += p.gain[j] * d;
@@ -287,6 +286,7 @@ bool TrackerFilter::answer(XrTime q, const Sample* pending, Answer& out) const n
     if (!found) return false;
   }
   out.velocity = p.velocity;
+  out.centre = p.centre;
   out.weight = smoothstep(static_cast<double>(p.t0 - p.start) * 1e-9 / kBlendS);
   return true;
 }

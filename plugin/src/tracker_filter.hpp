@@ -51,6 +51,8 @@ struct Answer {
   // (re)start so that the first answers are the runtime's and there is no transient.
   double weight = 0.0;
   bool corrected = false;  // moved by the innovation of a sample the engine has not processed yet
+  // The median joint of the engine's newest input (world): where the engine's hand is.
+  Eigen::Vector3d centre = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
 };
 
 class TrackerFilter {
@@ -99,6 +101,7 @@ class TrackerFilter {
     XrTime t0 = 0;         // newest processed sample
     XrTime start = 0;      // sample that (re)started the current run
     XrTime step = 0;       // knot spacing
+    Eigen::Vector3d centre = Eigen::Vector3d::Zero();  // median joint of the newest input
     std::array<Pose, kKnots> path;  // estimate at t0 + k * step
     Velocity velocity;
     std::array<XrTime, kHistory> hist_t{};

