@@ -192,6 +192,17 @@ XrTime App::frame() {
 }
 
 Joints App::locate(XrHandEXT hand, XrSpace base, XrTime time, bool velocities, uint32_t joint_count) const {
+  return locate_with(locate_joints, hand, base, time, velocities, joint_count);
+}
+
+Joints App::locate_raw(XrHandEXT hand, XrSpace base, XrTime time) const {
+  PFN_xrVoidFunction fn = nullptr;
+  REQUIRE(xrGetInstanceProcAddr(instance, "xrLocateRawHandJointsNOVENDOR", &fn) == XR_SUCCESS);
+  return locate_with(reinterpret_cast<PFN_xrLocateHandJointsEXT>(fn), hand, base, time, false, XR_HAND_JOINT_COUNT_EXT);
+}
+
+Joints App::locate_with(PFN_xrLocateHandJointsEXT fn, XrHandEXT hand, XrSpace base, XrTime time, bool velocities,
+                        uint32_t joint_count) const {
   Joints j;
   XrHandJointVelocitiesEXT vel{};
   vel.type = XR_TYPE_HAND_JOINT_VELOCITIES_EXT;
@@ -206,25 +217,7 @@ Joints App::locate(XrHandEXT hand, XrSpace base, XrTime time, bool velocities, u
   info.type = XR_TYPE_HAND_JOINTS_LOCATE_INFO_EXT;
   info.baseSpace = base;
   info.time = time;
-  j.result = locate_joints(trackers[hand - 1], &info, &out);
-  j.active = out.isActive;
-  return j;
-}
-
-Joints App::locate_raw(XrHandEXT hand, XrSpace base, XrTime time) const {
-  PFN_xrVoidFunction fn = nullptr;
-  REQUIRE(xrGetInstanceProcAddr(instance, "xrLocateRawHandJointsNOVENDOR", &fn) == XR_SUCCESS);
-  const auto raw = reinterpret_cast<PFN_xrLocateHandJointsEXT>(fn);
-  Joints j;
-  XrHandJointLocationsEXT out{};
-  out.type = XR_TYPE_HAND_JOINT_LOCATIONS_EXT;
-  out.jointCount = XR_HAND_JOINT_COUNT_EXT;
-  out.jointLocations = j.loc.data();
-  XrHandJointsLocateInfoEXT info{};
-  info.type = XR_TYPE_HAND_JOINTS_LOCATE_INFO_EXT;
-  info.baseSpace = base;
-  info.time = time;
-  j.result = raw(trackers[hand - 1], &info, &out);
+  j.result = fn(trackers[hand - 1], &info, &out);
   j.active = out.isActive;
   return j;
 }

@@ -82,6 +82,8 @@ class App {
   PFN_xrLocateHandJointsEXT locate_joints = nullptr;
 
  private:
+  Joints locate_with(PFN_xrLocateHandJointsEXT fn, XrHandEXT hand, XrSpace base, XrTime time, bool velocities,
+                     uint32_t joint_count) const;
   void poll_until(XrSessionState state);
   bool shut_ = false;
 };
