@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace hs::layer {
@@ -61,6 +62,12 @@ struct LoadedConfig {
 // model that cannot be used is reported in engine_messages and the classical default of
 // the mode (One Euro for denoise, Kalman for predict) is used instead.
 LoadedConfig load_layer_config();
+
+// Defaults with the JSON configuration text applied (what load_layer_config does with
+// the HANDSTEADY_CONFIG file, before the environment and the engine choice): never
+// throws for bad text; each problem is a warning prefixed with `where`. Loads no model.
+LayerConfig parse_layer_config_json(std::string_view text, const std::string& where,
+                                    std::vector<std::string>& warnings);
 
 // Picks the engine: method "stgae", or no method given and a model found -> load the model
 // (config.model_path, else hs::lookup_default_model next to the installed layer, else the
