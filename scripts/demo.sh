@@ -36,8 +36,13 @@ $hs synth-handwriting --text "ISMAR" --tremor parkinson --seed 1 --out "$out/han
 #    raw panel) and the replay runtime at 90 Hz, answering the newest sample (no
 #    runtime-side prediction), like a tracker without extrapolation.
 export XR_RUNTIME_JSON=$root/$b/runtime_shim/handsteady_replay_runtime.json
-export XR_API_LAYER_PATH=$root/$b/plugin
+# The build tree keeps the layer where an install does, <libdir>/handsteady (plugin/).
+libdir=$(sed -n 's/^CMAKE_INSTALL_LIBDIR:PATH=//p' "$b/CMakeCache.txt")
+export XR_API_LAYER_PATH=$root/$b/$libdir/handsteady
 export HANDSTEADY_SHIM_TRACK=$out/handwriting.csv HANDSTEADY_SHIM_CLOCK=sim:11.111111 HANDSTEADY_SHIM_FUTURE=hold
+# The simulated clock runs faster than real time: the layer's worker answers in lockstep,
+# as it does in real time when it keeps up (docs/OPENXR_LAYER.md "Worker").
+export HANDSTEADY_WORKER=lockstep
 unset XR_ENABLE_API_LAYERS HANDSTEADY_CONFIG HANDSTEADY_MODEL
 # A frame PNG every second; with ffmpeg installed every 3rd frame, made into a 30 fps video.
 every=90

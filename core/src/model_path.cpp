@@ -36,9 +36,6 @@ ModelLookup lookup_default_model(const std::vector<std::filesystem::path>& insta
   for (const auto& d : installed_dirs) {
     if (!d.empty()) r.tried.push_back((d / kDefaultModelFile).lexically_normal());
   }
-#ifdef HS_SOURCE_MODELS_DIR
-  r.tried.push_back(std::filesystem::path(HS_SOURCE_MODELS_DIR) / kDefaultModelFile);
-#endif
   for (const auto& p : r.tried) {
     if (is_file(p)) {
       r.found = p;

@@ -9,13 +9,20 @@
 //
 // Every entry point is noexcept and catches everything: on an internal failure the
 // tracker falls back to passing the runtime's data through, and the layer logs once.
+#define XR_USE_TIMESPEC
+#include <time.h>
+
 #include <openxr/openxr.h>
+#include <openxr/openxr_platform.h>
 
 #include "handsteady/track.hpp"
 #include "handsteady_xr/loader_negotiation.hpp"
 #include "handsteady_xr/raw_joints_ext.h"
 #include "handsteady_xr/xr_math.hpp"
+#include "hand_tuning.hpp"
+#include "joint_rewrite.hpp"
 #include "layer_config.hpp"
+#include "runtime_semantics.hpp"
 #include "tracker_filter.hpp"
 
 #include <fmt/format.h>
@@ -62,7 +69,8 @@ void log_once(std::atomic<bool>& flag, LogLevel level, std::string_view msg) noe
 }
 
 std::atomic<bool> g_logged_internal{false}, g_logged_world_space{false}, g_logged_locate_space{false},
-    g_logged_world_locate{false}, g_logged_record{false}, g_logged_engine{false};
+    g_logged_world_locate{false}, g_logged_record{false}, g_logged_engine{false}, g_logged_space_garbage{false},
+    g_logged_latest{false}, g_logged_time{false}, g_logged_repaired{false}, g_logged_garbage{false};
 
 // ---------------------------------------------------------------- state
 
@@ -78,9 +86,23 @@ struct InstanceData {
   PFN_xrCreateHandTrackerEXT CreateHandTrackerEXT = nullptr;
   PFN_xrDestroyHandTrackerEXT DestroyHandTrackerEXT = nullptr;
   PFN_xrLocateHandJointsEXT LocateHandJointsEXT = nullptr;
+  // The runtime's clock (XR_KHR_convert_timespec_time, enabled by the layer when the
+  // runtime has it): dates samples of runtimes that answer their latest pose.
+  PFN_xrConvertTimespecTimeToTimeKHR ConvertTimespecTimeToTimeKHR = nullptr;
   bool hand_tracking = false;  // the app enabled XR_EXT_hand_tracking
   bool raw_joints = false;     // the app enabled our XR_NOVENDOR_handsteady_raw_joints
+  bool app_timespec = false;   // the app enabled XR_KHR_convert_timespec_time itself
   LayerConfig config;
+  std::unique_ptr<HandTuning> tuning;  // per-hand smoothing and horizon, live
+
+  // The runtime's now, or 0 when it has no clock the layer can read.
+  XrTime now() const noexcept {
+    if (!ConvertTimespecTimeToTimeKHR) return 0;
+    timespec ts{};
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    XrTime t = 0;
+    return XR_SUCCEEDED(ConvertTimespecTimeToTimeKHR(instance, &ts, &t)) ? t : 0;
+  }
 };
 
 // What an app saw, raw (world space, at sample times) and filtered (at asked times).
@@ -97,6 +119,12 @@ struct TrackerData {
   XrSpace world = XR_NULL_HANDLE;  // the layer's world-fixed space (LOCAL)
   // One state per joint motion range (XR_EXT_hand_joints_motion_range).
   std::array<std::unique_ptr<TrackerFilter>, 2> filters;
+  // How the runtime answers times, and the last world sample per motion range (repeats of
+  // a runtime that holds its newest pose are not new samples). Guarded by sample_mu.
+  std::mutex sample_mu;
+  SemanticsProbe probe;
+  std::array<Pose, 2> last_sample;
+  std::atomic<TimeSemantics> semantics{TimeSemantics::History};  // probe's verdict, read without the lock
   std::atomic<bool> passthrough{false};
   std::unique_ptr<Recording> recording;
   int serial = 0;
@@ -168,6 +196,7 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateHandTrackerEXT(XrSession session, const XrH
     t->handle = *tracker;
     t->session = session;
     t->hand = info->hand;
+    for (auto& p : t->last_sample) p = untracked_pose();
     XrReferenceSpaceCreateInfo sci{};
     sci.type = XR_TYPE_REFERENCE_SPACE_CREATE_INFO;
     sci.referenceSpaceType = XR_REFERENCE_SPACE_TYPE_LOCAL;
@@ -226,12 +255,10 @@ XRAPI_ATTR XrResult XRAPI_CALL DestroyHandTrackerEXT(XrHandTrackerEXT tracker) n
   return t->inst->DestroyHandTrackerEXT(tracker);
 }
 
-bool position_usable(const XrHandJointLocationEXT& j) {
+// Valid and tracked joints go to the engine; joint_gate then judges whether they are plausible.
+bool position_tracked(const XrHandJointLocationEXT& j) {
   constexpr XrSpaceLocationFlags need = XR_SPACE_LOCATION_POSITION_VALID_BIT | XR_SPACE_LOCATION_POSITION_TRACKED_BIT;
-  if ((j.locationFlags & need) != need || !xr::finite(j.pose.position)) return false;
-  // Absurd magnitudes are runtime garbage, not hands.
-  constexpr float kMax = 1000.0f;
-  return std::fabs(j.pose.position.x) < kMax && std::fabs(j.pose.position.y) < kMax && std::fabs(j.pose.position.z) < kMax;
+  return (j.locationFlags & need) == need;
 }
 
 template <class T, XrStructureType Type>
@@ -247,9 +274,70 @@ const T* find_in_chain(const void* next) {
   return nullptr;
 }
 
+// The runtime's joints of tracker t in the layer's world space at `time` (NaN rows: not
+// tracked). Velocities into `vel` when given. False when the runtime fails.
+bool locate_world(const TrackerData& t, const XrHandJointsLocateInfoEXT& app_info, XrTime time, Pose& pose,
+                  std::array<XrHandJointVelocityEXT, XR_HAND_JOINT_COUNT_EXT>* vel) noexcept {
+  std::array<XrHandJointLocationEXT, XR_HAND_JOINT_COUNT_EXT> wj{};
+  XrHandJointVelocitiesEXT wv{XR_TYPE_HAND_JOINT_VELOCITIES_EXT, nullptr, XR_HAND_JOINT_COUNT_EXT,
+                              vel ? vel->data() : nullptr};
+  XrHandJointLocationsEXT wl{XR_TYPE_HAND_JOINT_LOCATIONS_EXT, vel ? &wv : nullptr, XR_FALSE, XR_HAND_JOINT_COUNT_EXT,
+                             wj.data()};
+  XrHandJointsLocateInfoEXT wi{XR_TYPE_HAND_JOINTS_LOCATE_INFO_EXT, app_info.next, t.world, time};
+  const XrResult res = t.inst->LocateHandJointsEXT(t.handle, &wi, &wl);
+  if (XR_FAILED(res)) {
+    log_once(g_logged_world_locate, LogLevel::Warn,
+             fmt::format("runtime failed to locate joints in the layer's space (result {}): passing through",
+                         static_cast<int>(res)));
+    return false;
+  }
+  for (int j = 0; j < kJointCount; ++j) {
+    if (wl.isActive && position_tracked(wj[j])) pose.row(j) = xr::to_eigen(wj[j].pose.position).transpose();
+    else pose.row(j).setConstant(std::numeric_limits<double>::quiet_NaN());
+  }
+  return true;
+}
+
+// The layer's world space in the app's base space at `time`, with the world's motion seen
+// from the base. False (pass through) for a failed call or a pose no runtime can mean,
+// even flagged valid: non-finite, 10 km away, a non-unit orientation.
+bool locate_base(const InstanceData& inst, XrSpace world, XrSpace base, XrTime time, xr::Rigid& base_from_world,
+                 BaseMotion& motion) noexcept {
+  XrSpaceVelocity vel{};
+  vel.type = XR_TYPE_SPACE_VELOCITY;
+  XrSpaceLocation loc{};
+  loc.type = XR_TYPE_SPACE_LOCATION;
+  loc.next = &vel;
+  const XrResult res = inst.LocateSpace(world, base, time, &loc);
+  constexpr XrSpaceLocationFlags need = XR_SPACE_LOCATION_POSITION_VALID_BIT | XR_SPACE_LOCATION_ORIENTATION_VALID_BIT;
+  if (XR_FAILED(res)) {
+    log_once(g_logged_locate_space, LogLevel::Warn,
+             fmt::format("xrLocateSpace failed (result {}): passing through", static_cast<int>(res)));
+    return false;
+  }
+  if ((loc.locationFlags & need) != need) return false;
+  if (!xr::finite(loc.pose.position) || !(xr::to_eigen(loc.pose.position).norm() < 1e4) ||
+      !xr::usable(loc.pose.orientation)) {
+    log_once(g_logged_space_garbage, LogLevel::Warn,
+             "xrLocateSpace answered an impossible pose flagged valid: those answers pass through");
+    return false;
+  }
+  base_from_world = xr::to_rigid(loc.pose);
+  constexpr XrSpaceVelocityFlags both = XR_SPACE_VELOCITY_LINEAR_VALID_BIT | XR_SPACE_VELOCITY_ANGULAR_VALID_BIT;
+  motion.valid = (vel.velocityFlags & both) == both && xr::finite(vel.linearVelocity) &&
+                 xr::finite(vel.angularVelocity) && xr::to_eigen(vel.linearVelocity).norm() < 20.0 &&
+                 xr::to_eigen(vel.angularVelocity).norm() < 50.0;
+  if (motion.valid) {
+    motion.linear = xr::to_eigen(vel.linearVelocity);
+    motion.angular = xr::to_eigen(vel.angularVelocity);
+  }
+  return true;
+}
+
 // Replaces the runtime's answer in `out` (already filled for the app) by the engine's.
 // Returns without touching `out` whenever something needed is missing.
-void filter_answer(TrackerData& t, const XrHandJointsLocateInfoEXT& info, XrHandJointLocationsEXT& out) noexcept {
+void filter_answer(TrackerData& t, const XrHandJointsLocateInfoEXT& info, XrHandJointLocationsEXT& out,
+                   JointMask& garbage) noexcept {
   const InstanceData& inst = *t.inst;
   const auto* range =
       find_in_chain<XrHandJointsMotionRangeInfoEXT, XR_TYPE_HAND_JOINTS_MOTION_RANGE_INFO_EXT>(info.next);
@@ -259,105 +347,78 @@ void filter_answer(TrackerData& t, const XrHandJointsLocateInfoEXT& info, XrHand
   if (!filter) return;
   auto* app_vel = find_in_chain<XrHandJointVelocitiesEXT, XR_TYPE_HAND_JOINT_VELOCITIES_EXT>(out.next);
   if (app_vel && (app_vel->jointCount != XR_HAND_JOINT_COUNT_EXT || !app_vel->jointVelocities)) app_vel = nullptr;
+  const int hand = t.hand == XR_HAND_LEFT_EXT ? 0 : 1;
+  const bool predict = inst.config.mode == Mode::Predict;
+  const XrTime horizon = predict ? inst.tuning->horizon_ns(hand) : 0;
+  const TimeSemantics semantics = t.semantics.load(std::memory_order_relaxed);
 
-  // The runtime's joints in the world-fixed space at the sample time (= the asked time
-  // when denoising; horizon earlier when predicting, so the engine extrapolates).
+  // The runtime's joints in the world-fixed space, asked `horizon` early when predicting
+  // so that the engine extrapolates from real data (a runtime answering the asked time).
   XrTime sample_time = info.time;
-  if (inst.config.mode == Mode::Predict && info.time - inst.config.horizon_ns > 0)
-    sample_time = info.time - inst.config.horizon_ns;
-  std::array<XrHandJointLocationEXT, XR_HAND_JOINT_COUNT_EXT> wj{};
+  if (horizon > 0 && info.time - horizon > 0) sample_time = info.time - horizon;
+  const bool same_time = sample_time == info.time;
   std::array<XrHandJointVelocityEXT, XR_HAND_JOINT_COUNT_EXT> wvj{};
-  XrHandJointVelocitiesEXT wv{XR_TYPE_HAND_JOINT_VELOCITIES_EXT, nullptr, XR_HAND_JOINT_COUNT_EXT, wvj.data()};
-  XrHandJointLocationsEXT wl{XR_TYPE_HAND_JOINT_LOCATIONS_EXT, app_vel ? &wv : nullptr, XR_FALSE,
-                             XR_HAND_JOINT_COUNT_EXT, wj.data()};
-  XrHandJointsLocateInfoEXT wi{XR_TYPE_HAND_JOINTS_LOCATE_INFO_EXT, info.next, t.world, sample_time};
-  const XrResult wres = inst.LocateHandJointsEXT(t.handle, &wi, &wl);
-  if (XR_FAILED(wres)) {
-    log_once(g_logged_world_locate, LogLevel::Warn,
-             fmt::format("runtime failed to locate joints in the layer's space (result {}): passing through",
-                         static_cast<int>(wres)));
-    return;
-  }
   Pose observed;
-  bool any = false;
-  for (int j = 0; j < kJointCount; ++j) {
-    if (wl.isActive && position_usable(wj[j])) {
-      observed.row(j) = xr::to_eigen(wj[j].pose.position).transpose();
-      any = true;
-    } else {
-      observed.row(j).setConstant(std::numeric_limits<double>::quiet_NaN());
+  if (!locate_world(t, info, sample_time, observed, app_vel && same_time ? &wvj : nullptr)) return;
+  const bool any = any_joint_tracked(observed);
+
+  // Is this a new sample, and what time is it from? Probe the runtime's time semantics now and then.
+  const XrTime now = inst.now();
+  bool fresh = false;
+  bool probe = false;
+  {
+    std::lock_guard lock(t.sample_mu);
+    fresh = any && !same_pose(observed, t.last_sample[state_index]);
+    if (any) t.last_sample[state_index] = observed;
+    probe = any && t.probe.due();
+  }
+  if (probe && sample_time - SemanticsProbe::kProbeOffsetNs > 0) {
+    Pose earlier;
+    if (locate_world(t, info, sample_time - SemanticsProbe::kProbeOffsetNs, earlier, nullptr)) {
+      std::lock_guard lock(t.sample_mu);
+      t.probe.vote(observed, earlier, fresh);
+      t.semantics.store(t.probe.semantics(), std::memory_order_relaxed);
+      if (t.probe.semantics() == TimeSemantics::Latest)
+        log_once(g_logged_latest, LogLevel::Info,
+                 fmt::format("the runtime answers its latest pose whatever the time asked: samples are dated by {}",
+                             now ? "the runtime's clock" : "the asked time (no XR_KHR_convert_timespec_time)"));
     }
   }
-  Pose est;
-  Velocity est_vel;
-  const bool have = filter->update(sample_time, any ? &observed : nullptr, info.time, est, est_vel);
+  XrTime stamp = sample_time, query = info.time;
+  if (semantics == TimeSemantics::Latest && now > 0) {
+    // Its newest pose is from about now: extrapolate from there by at most the horizon.
+    stamp = now;
+    query = std::min(info.time, now + horizon);
+  }
+  // With a clock, a sample dated more than a second away from now is the app's time chaos
+  // (0, far future, far past): it is not fed; the engine's answer then decides.
+  if (now > 0 && (stamp > now + 1'000'000'000 || stamp < now - 1'000'000'000)) {
+    fresh = false;
+    log_once(g_logged_time, LogLevel::Info, "a hand query far from the runtime's now: not fed to the filter");
+  }
+  Answer answer;
+  const bool have = filter->update(stamp, fresh ? &observed : nullptr, query, answer);
   if (t.recording) {
     std::lock_guard lock(t.recording->mu);
-    if (any) append_row(t.recording->raw, sample_time, observed);
-    if (have) append_row(t.recording->filtered, info.time, est);
+    if (fresh) append_row(t.recording->raw, stamp, observed);
+    if (have) append_row(t.recording->filtered, query, answer.pose);
   }
   if (!have) return;
 
-  // World-fixed space -> the app's base space at the asked time.
-  XrSpaceLocation wloc{};
-  wloc.type = XR_TYPE_SPACE_LOCATION;
-  const XrResult lres = inst.LocateSpace(t.world, info.baseSpace, info.time, &wloc);
-  constexpr XrSpaceLocationFlags need = XR_SPACE_LOCATION_POSITION_VALID_BIT | XR_SPACE_LOCATION_ORIENTATION_VALID_BIT;
-  if (XR_FAILED(lres) || (wloc.locationFlags & need) != need || !xr::finite(wloc.pose.position) ||
-      !xr::usable(wloc.pose.orientation)) {
-    if (XR_FAILED(lres))
-      log_once(g_logged_locate_space, LogLevel::Warn,
-               fmt::format("xrLocateSpace failed (result {}): passing through", static_cast<int>(lres)));
-    return;
-  }
-  const xr::Rigid base_from_world = xr::to_rigid(wloc.pose);
-
-  // New positions: joints the runtime reports tracked take the engine's estimate.
-  std::array<Eigen::Vector3d, kJointCount> raw, fresh;
-  std::array<bool, kJointCount> replaced{};
-  for (int j = 0; j < kJointCount; ++j) {
-    const XrHandJointLocationEXT& loc = out.jointLocations[j];
-    raw[j] = xr::to_eigen(loc.pose.position);
-    fresh[j] = raw[j];
-    constexpr XrSpaceLocationFlags tracked = XR_SPACE_LOCATION_POSITION_VALID_BIT | XR_SPACE_LOCATION_POSITION_TRACKED_BIT;
-    const Eigen::Vector3d e = est.row(j).transpose();
-    if ((loc.locationFlags & tracked) == tracked && e.allFinite()) {
-      fresh[j] = base_from_world * e;
-      replaced[j] = true;
-    }
-  }
-  // Orientations follow their bones: the smallest rotation taking the runtime's bone
-  // direction onto the new one, applied to the runtime's orientation (keeps its twist).
-  std::array<XrQuaternionf, kJointCount> orient{};
-  for (int j = 0; j < kJointCount; ++j) {
-    orient[j] = out.jointLocations[j].pose.orientation;
-    const auto [a, b] = xr::kJointBone[j];
-    if (!replaced[a] && !replaced[b]) continue;
-    const Eigen::Vector3d d_raw = raw[b] - raw[a], d_new = fresh[b] - fresh[a];
-    if (!d_raw.allFinite() || !d_new.allFinite() || d_raw.norm() < 1e-6 || d_new.norm() < 1e-6 ||
-        !xr::usable(orient[j]))
-      continue;
-    const Eigen::Quaterniond q = Eigen::Quaterniond::FromTwoVectors(d_raw, d_new) * xr::to_eigen(orient[j]).normalized();
-    orient[j] = xr::to_xr(q.normalized());
-  }
-  for (int j = 0; j < kJointCount; ++j) {
-    out.jointLocations[j].pose.position = xr::to_xr(fresh[j]);
-    out.jointLocations[j].pose.orientation = orient[j];
-  }
-  // Linear velocities: the runtime's (relative to the base space, so base motion stays
-  // in) plus the difference between the engine's world velocity and the runtime's.
-  if (app_vel && wl.isActive) {
-    for (int j = 0; j < kJointCount; ++j) {
-      XrHandJointVelocityEXT& v = app_vel->jointVelocities[j];
-      const Eigen::Vector3d ev = est_vel.row(j).transpose();
-      if (!replaced[j] || !(v.velocityFlags & XR_SPACE_VELOCITY_LINEAR_VALID_BIT) ||
-          !(wvj[j].velocityFlags & XR_SPACE_VELOCITY_LINEAR_VALID_BIT) || !ev.allFinite() ||
-          !xr::finite(wvj[j].linearVelocity) || !xr::finite(v.linearVelocity))
-        continue;
-      const Eigen::Vector3d dv = base_from_world.linear() * (ev - xr::to_eigen(wvj[j].linearVelocity));
-      v.linearVelocity = xr::to_xr(Eigen::Vector3d(xr::to_eigen(v.linearVelocity) + dv));
-    }
-  }
+  xr::Rigid base_from_world;
+  BaseMotion motion;
+  if (!locate_base(inst, t.world, info.baseSpace, info.time, base_from_world, motion)) return;
+  if (!motion.valid && same_time) motion.world_velocities = wvj.data();
+  // Where the runtime's hand is not where the engine's is (re-acquired elsewhere, not yet
+  // seen by the engine), the runtime's answer stands: no hand moves 8 cm beyond its
+  // prediction in one answer.
+  const double max_offset = 0.08 + 3.0 * static_cast<double>(std::max<XrTime>(info.time - stamp, 0)) * 1e-9;
+  const RewriteStats stats = rewrite_joints(answer, inst.tuning->smoothing(hand), base_from_world, motion, garbage,
+                                            max_offset, out.jointLocations,
+                                            app_vel ? app_vel->jointVelocities : nullptr);
+  if (stats.repaired > 0)
+    log_once(g_logged_repaired, LogLevel::Warn,
+             "the runtime reported impossible joint positions as tracked: answered with the filter's estimate");
 }
 
 XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, const XrHandJointsLocateInfoEXT* info,
@@ -370,7 +431,15 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
       out->jointCount != XR_HAND_JOINT_COUNT_EXT)
     return res;
   try {
-    filter_answer(*t, *info, *out);
+    JointMask garbage = garbage_joints(out->jointLocations);
+    filter_answer(*t, *info, *out, garbage);
+    // Whatever the layer could not replace is never handed over as garbage.
+    auto* vel = find_in_chain<XrHandJointVelocitiesEXT, XR_TYPE_HAND_JOINT_VELOCITIES_EXT>(out->next);
+    if (vel && (vel->jointCount != XR_HAND_JOINT_COUNT_EXT || !vel->jointVelocities)) vel = nullptr;
+    if (repair_garbage(garbage, out->jointLocations, vel ? vel->jointVelocities : nullptr) > 0)
+      log_once(g_logged_garbage, LogLevel::Warn,
+               "the runtime reported impossible joint data as valid: positions replaced by a neighbour's (not "
+               "tracked), velocities marked invalid");
   } catch (...) {
     t->passthrough = true;
     log_once(g_logged_internal, LogLevel::Error, "internal failure while filtering: this tracker passes through");
@@ -470,6 +539,12 @@ XRAPI_ATTR XrResult XRAPI_CALL GetInstanceProcAddr(XrInstance instance, const ch
   };
   if (n == "xrGetInstanceProcAddr") return ours(&GetInstanceProcAddr);
   if (n == "xrDestroyInstance") return ours(&DestroyInstance);
+  // The layer enabled XR_KHR_convert_timespec_time for its own clock; an app that did not
+  // enable it must not get its functions.
+  if (!inst->app_timespec && (n == "xrConvertTimespecTimeToTimeKHR" || n == "xrConvertTimeToTimespecTimeKHR")) {
+    *fn = nullptr;
+    return XR_ERROR_FUNCTION_UNSUPPORTED;
+  }
   if (n == "xrLocateRawHandJointsNOVENDOR") {
     if (!inst->raw_joints || !inst->LocateHandJointsEXT) {
       *fn = nullptr;
@@ -512,21 +587,32 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateApiLayerInstance(const XrInstanceCreateInfo
   down.nextInfo = layerInfo->nextInfo->next;
   // Our own extension is ours to answer: the layers and runtime below never see it.
   std::vector<const char*> down_extensions;
-  bool raw_joints = false;
+  bool raw_joints = false, app_timespec = false;
   try {
     for (uint32_t i = 0; i < info->enabledExtensionCount; ++i) {
-      if (std::string_view(info->enabledExtensionNames[i]) == XR_NOVENDOR_HANDSTEADY_RAW_JOINTS_EXTENSION_NAME)
+      const std::string_view name(info->enabledExtensionNames[i]);
+      if (name == XR_NOVENDOR_HANDSTEADY_RAW_JOINTS_EXTENSION_NAME) {
         raw_joints = true;
-      else
-        down_extensions.push_back(info->enabledExtensionNames[i]);
+        continue;
+      }
+      if (name == XR_KHR_CONVERT_TIMESPEC_TIME_EXTENSION_NAME) app_timespec = true;
+      down_extensions.push_back(info->enabledExtensionNames[i]);
     }
+    // The runtime's clock for the layer, when the runtime has it (else created without).
+    if (!app_timespec) down_extensions.push_back(XR_KHR_CONVERT_TIMESPEC_TIME_EXTENSION_NAME);
   } catch (...) {
     return XR_ERROR_OUT_OF_MEMORY;
   }
   XrInstanceCreateInfo down_info = *info;
   down_info.enabledExtensionCount = static_cast<uint32_t>(down_extensions.size());
   down_info.enabledExtensionNames = down_extensions.data();
-  const XrResult res = layerInfo->nextInfo->nextCreateApiLayerInstance(&down_info, &down, instance);
+  XrResult res = layerInfo->nextInfo->nextCreateApiLayerInstance(&down_info, &down, instance);
+  bool have_timespec = XR_SUCCEEDED(res);
+  if (res == XR_ERROR_EXTENSION_NOT_PRESENT && !app_timespec) {
+    down_info.enabledExtensionCount -= 1;
+    res = layerInfo->nextInfo->nextCreateApiLayerInstance(&down_info, &down, instance);
+    have_timespec = false;
+  }
   if (XR_FAILED(res)) return res;
   try {
     auto d = std::make_shared<InstanceData>();
@@ -541,6 +627,8 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateApiLayerInstance(const XrInstanceCreateInfo
     for (uint32_t i = 0; i < info->enabledExtensionCount; ++i)
       if (std::string_view(info->enabledExtensionNames[i]) == XR_EXT_HAND_TRACKING_EXTENSION_NAME) d->hand_tracking = true;
     d->raw_joints = raw_joints && d->hand_tracking;
+    d->app_timespec = app_timespec;
+    if (have_timespec) load(*d, "xrConvertTimespecTimeToTimeKHR", d->ConvertTimespecTimeToTimeKHR);
     if (d->hand_tracking) {
       load(*d, "xrCreateHandTrackerEXT", d->CreateHandTrackerEXT);
       load(*d, "xrDestroyHandTrackerEXT", d->DestroyHandTrackerEXT);
@@ -551,6 +639,10 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateApiLayerInstance(const XrInstanceCreateInfo
     g_log_level = static_cast<int>(d->config.log_level);
     for (const auto& w : loaded.warnings) log(LogLevel::Warn, fmt::format("configuration: {} (ignored)", w));
     for (const auto& m : loaded.engine_messages) log(m.level, m.text);
+    d->tuning = std::make_unique<HandTuning>(d->config, [](const std::string& text, bool warning) {
+      if (warning) log(LogLevel::Warn, fmt::format("configuration: {} (ignored)", text));
+      else log(LogLevel::Info, text);
+    });
     if (!d->DestroyInstance || !d->LocateSpace || !d->CreateReferenceSpace || !d->DestroySpace) {
       log(LogLevel::Warn, "runtime lacks core space functions: passing everything through");
       d->config.mode = Mode::Off;

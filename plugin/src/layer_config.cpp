@@ -7,6 +7,7 @@
 
 #include <dlfcn.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -73,8 +74,35 @@ struct Applier {
     }
   }
   void horizon_ms(double v, const std::string& where) {
-    if (v >= 0.0 && v <= 500.0) c.horizon_ns = static_cast<int64_t>(std::llround(v * 1e6));
+    if (v >= 0.0 && v <= 500.0) {
+      c.horizon_ns = static_cast<int64_t>(std::llround(v * 1e6));
+      for (auto& h : c.hands) h.horizon_ns = c.horizon_ns;
+    } else {
+      warnings.push_back(where + ": horizon must be in [0, 500] ms");
+    }
+  }
+  void max_horizon_ms(double v, const std::string& where) {
+    if (v >= 0.0 && v <= 500.0) c.max_horizon_ns = static_cast<int64_t>(std::llround(v * 1e6));
+    else warnings.push_back(where + ": max horizon must be in [0, 500] ms");
+  }
+  void hand_horizon_ms(int hand, double v, const std::string& where) {
+    if (v >= 0.0 && v <= 500.0) c.hands[hand].horizon_ns = static_cast<int64_t>(std::llround(v * 1e6));
     else warnings.push_back(where + ": horizon must be in [0, 500] ms");
+  }
+  void smoothing(int hand, double v, const std::string& where) {  // hand -1: both
+    if (!(v >= 0.0 && v <= 1.0)) {
+      warnings.push_back(where + ": smoothing must be in [0, 1]");
+      return;
+    }
+    for (int h = 0; h < 2; ++h)
+      if (hand < 0 || hand == h) c.hands[h].smoothing = v;
+  }
+  void worker(const std::string& v, const std::string& where) {
+    if (v == "auto") c.worker = WorkerMode::Auto;
+    else if (v == "inline") c.worker = WorkerMode::Inline;
+    else if (v == "worker") c.worker = WorkerMode::Worker;
+    else if (v == "lockstep") c.worker = WorkerMode::Lockstep;
+    else warnings.push_back(where + ": unknown worker mode '" + v + "' (auto, inline, worker, lockstep)");
   }
   void stgae_phases(double v, const std::string& where) {
     if (v >= 0 && v <= kStgaeMaxPhases && v == std::floor(v)) c.stgae_phases = static_cast<int>(v);
@@ -130,6 +158,30 @@ void apply_json(std::string_view text, const std::string& where, Applier& a) {
   if (j.contains("stgae_phases")) {
     if (j["stgae_phases"].is_number()) a.stgae_phases(j["stgae_phases"].get<double>(), where + ": stgae_phases");
     else a.warnings.push_back(where + ": 'stgae_phases' must be a number");
+  }
+  if (auto v = str("worker")) a.worker(*v, where + ": worker");
+  auto number = [&](const nlohmann::json& obj, const char* key, const std::string& at, auto&& apply) {
+    if (!obj.contains(key)) return;
+    if (obj[key].is_number()) apply(obj[key].get<double>(), at + ": " + key);
+    else a.warnings.push_back(at + ": '" + key + "' must be a number");
+  };
+  number(j, "max_horizon_ms", where, [&](double v, const std::string& w) { a.max_horizon_ms(v, w); });
+  number(j, "smoothing", where, [&](double v, const std::string& w) { a.smoothing(-1, v, w); });
+  if (j.contains("hands")) {
+    if (!j["hands"].is_object()) {
+      a.warnings.push_back(where + ": 'hands' must be an object with 'left' and/or 'right'");
+    } else {
+      for (const auto& [key, h] : j["hands"].items()) {
+        const int hand = key == "left" ? 0 : key == "right" ? 1 : -1;
+        const std::string at = where + ": hands." + key;
+        if (hand < 0 || !h.is_object()) {
+          a.warnings.push_back(at + ": expected 'left' or 'right' with an object");
+          continue;
+        }
+        number(h, "smoothing", at, [&](double v, const std::string& w) { a.smoothing(hand, v, w); });
+        number(h, "horizon_ms", at, [&](double v, const std::string& w) { a.hand_horizon_ms(hand, v, w); });
+      }
+    }
   }
   FilterConfig& f = a.c.filter;
   double max_gap_ms = f.max_gap_s * 1e3;
@@ -226,6 +278,37 @@ std::string_view mode_name(Mode m) {
   return "unknown";
 }
 
+namespace {
+// HANDSTEADY_SMOOTHING (both hands), HANDSTEADY_{LEFT,RIGHT}_SMOOTHING, HANDSTEADY_{LEFT,RIGHT}_HORIZON_MS.
+void apply_hand_env(Applier& a) {
+  if (auto v = env("HANDSTEADY_SMOOTHING")) {
+    if (auto d = parse_double(*v)) a.smoothing(-1, *d, "HANDSTEADY_SMOOTHING");
+    else a.warnings.push_back("HANDSTEADY_SMOOTHING: not a number: '" + *v + "'");
+  }
+  for (int h = 0; h < 2; ++h) {
+    const std::string prefix = h == 0 ? "HANDSTEADY_LEFT_" : "HANDSTEADY_RIGHT_";
+    if (auto v = env((prefix + "SMOOTHING").c_str())) {
+      if (auto d = parse_double(*v)) a.smoothing(h, *d, prefix + "SMOOTHING");
+      else a.warnings.push_back(prefix + "SMOOTHING: not a number: '" + *v + "'");
+    }
+    if (auto v = env((prefix + "HORIZON_MS").c_str())) {
+      if (auto d = parse_double(*v)) a.hand_horizon_ms(h, *d, prefix + "HORIZON_MS");
+      else a.warnings.push_back(prefix + "HORIZON_MS: not a number: '" + *v + "'");
+    }
+  }
+}
+}  // namespace
+
+std::array<HandSettings, 2> load_hand_settings(std::vector<std::string>& warnings) {
+  LayerConfig c;
+  Applier a{c, warnings};
+  if (auto path = env("HANDSTEADY_CONFIG")) apply_file(*path, a);
+  if (auto v = env("HANDSTEADY_HORIZON_MS"))
+    if (auto d = parse_double(*v)) a.horizon_ms(*d, "HANDSTEADY_HORIZON_MS");
+  apply_hand_env(a);
+  return c.hands;
+}
+
 LayerConfig parse_layer_config_json(std::string_view text, const std::string& where,
                                     std::vector<std::string>& warnings) {
   LayerConfig c;
@@ -252,6 +335,13 @@ LoadedConfig load_layer_config() {
   }
   if (auto v = env("HANDSTEADY_LOG")) a.log_level(*v, "HANDSTEADY_LOG");
   if (auto v = env("HANDSTEADY_RECORD")) c.record_dir = *v;
+  if (auto v = env("HANDSTEADY_WORKER")) a.worker(*v, "HANDSTEADY_WORKER");
+  if (auto v = env("HANDSTEADY_MAX_HORIZON_MS")) {
+    if (auto d = parse_double(*v)) a.max_horizon_ms(*d, "HANDSTEADY_MAX_HORIZON_MS");
+    else out.warnings.push_back("HANDSTEADY_MAX_HORIZON_MS: not a number: '" + *v + "'");
+  }
+  apply_hand_env(a);
+  c.max_horizon_ns = std::max({c.max_horizon_ns, c.horizon_ns, c.hands[0].horizon_ns, c.hands[1].horizon_ns});
   // Each mode's classical default: smoothing without lag-compensation for denoise, a
   // constant-velocity Kalman (which extrapolates) for predict; Multi-STGAE (which does
   // both) when a model is found and no method is given. Never in mode off (nothing runs).

@@ -4,6 +4,7 @@
 #include "handsteady/filters.hpp"
 #include "handsteady/stgae_model.hpp"
 
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -27,6 +28,18 @@ inline FilterConfig layer_default_filter() {
 
 enum class Engine { Classical, Stgae };
 
+// Where the engine runs (tracker_filter.hpp): auto = a worker thread for Multi-STGAE, the
+// app's thread for the classical filters; lockstep = worker answers, deterministic (tests).
+enum class WorkerMode { Auto, Inline, Worker, Lockstep };
+
+// What a user may tune per hand while the app runs (the configuration file is re-read
+// when it changes): how much of the engine's estimate replaces the runtime's joints
+// (0 = the runtime's, 1 = the engine's) and the prediction horizon.
+struct HandSettings {
+  double smoothing = 1.0;
+  int64_t horizon_ns = 20'000'000;
+};
+
 struct LayerConfig {
   Mode mode = Mode::Denoise;
   // Classical: filter.method. Stgae: the Multi-STGAE streaming engine over `model`.
@@ -41,7 +54,11 @@ struct LayerConfig {
   // step per call); 1 = one stream (a step every model period, answers moved along its
   // predicted path in between: a third of the compute at 90 Hz, rougher answers).
   int stgae_phases = 0;
-  int64_t horizon_ns = 20'000'000;  // predict mode: sample the runtime this long before the asked time
+  int64_t horizon_ns = 20'000'000;  // predict mode: predict this far past the runtime's data (default of both hands)
+  // Largest horizon a hand may be given at run time (the engine publishes its path this far).
+  int64_t max_horizon_ns = 100'000'000;
+  std::array<HandSettings, 2> hands;  // [left, right]; "hands" in the file, HANDSTEADY_{LEFT,RIGHT}_*
+  WorkerMode worker = WorkerMode::Auto;
   LogLevel log_level = LogLevel::Warn;
   std::string record_dir;       // non-empty: write raw and filtered track CSVs per tracker
 };
@@ -62,6 +79,11 @@ struct LoadedConfig {
 // model that cannot be used is reported in engine_messages and the classical default of
 // the mode (One Euro for denoise, Kalman for predict) is used instead.
 LoadedConfig load_layer_config();
+
+// The per-hand settings from the configuration file and environment as they are now
+// (smoothing, horizon_ms: global and per hand), for re-reading while the app runs; bad
+// values are reported in warnings and the defaults kept.
+std::array<HandSettings, 2> load_hand_settings(std::vector<std::string>& warnings);
 
 // Defaults with the JSON configuration text applied (what load_layer_config does with
 // the HANDSTEADY_CONFIG file, before the environment and the engine choice): never

@@ -8,19 +8,10 @@
 #include <numbers>
 
 namespace hs::layer {
-
-TrackerFilter::TrackerFilter(std::unique_ptr<PoseFilter> filter, double reset_gap_s, double max_ahead_s)
-    : filter_(std::move(filter)),
-      reset_gap_ns_(reset_gap_s * 1e9),
-      max_ahead_ns_(max_ahead_s * 1e9),
-      hist_pose_(std::make_unique<std::array<Pose, kHistory>>()) {
-  velocity_.setConstant(std::numeric_limits<double>::quiet_NaN());
-}
-
-TrackerFilter::TrackerFilter(const FilterConfig& config)
-    : TrackerFilter(make_filter(config), config.max_gap_s, std::numeric_limits<double>::infinity()) {}
-
 namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
 std::unique_ptr<PoseFilter> make_layer_engine(const LayerConfig& c) {
   if (c.engine == Engine::Stgae && c.model) {
     // The horizon only matters for validation here: estimates are asked at explicit times.
@@ -29,85 +20,268 @@ std::unique_ptr<PoseFilter> make_layer_engine(const LayerConfig& c) {
   }
   return make_filter(c.filter);
 }
+
+double reset_gap_s(const LayerConfig& c) {
+  return c.engine == Engine::Stgae ? std::min(c.filter.max_gap_s, kStgaeGapResetS) : c.filter.max_gap_s;
+}
+
+// How far past its newest processed sample the engine answers: the largest horizon a
+// hand may be given in predict mode, plus the hand-off and a few missed samples.
+double max_ahead_s(const LayerConfig& c) {
+  const double horizon = c.mode == Mode::Predict ? static_cast<double>(c.max_horizon_ns) * 1e-9 : 0.0;
+  return horizon + 0.1;
+}
+
+Execution execution(const LayerConfig& c) {
+  switch (c.worker) {
+    case WorkerMode::Inline: return Execution::Inline;
+    case WorkerMode::Worker: return Execution::Worker;
+    case WorkerMode::Lockstep: return Execution::Lockstep;
+    case WorkerMode::Auto: break;
+  }
+  // The network runs off the app's thread; classical filters cost less than the hand-off.
+  return c.engine == Engine::Stgae ? Execution::Worker : Execution::Inline;
+}
+
+double smoothstep(double x) {
+  x = std::clamp(x, 0.0, 1.0);
+  return x * x * (3.0 - 2.0 * x);
+}
+
 }  // namespace
 
-namespace {
-// How far past its last sample the engine may answer: its own gap (after which its state
-// has expired) plus the horizon the layer samples early by in predict mode.
-double max_ahead_s(const LayerConfig& c) {
-  const double gap = c.engine == Engine::Stgae ? std::min(c.filter.max_gap_s, kStgaeGapResetS) : c.filter.max_gap_s;
-  return gap + (c.mode == Mode::Predict ? static_cast<double>(c.horizon_ns) * 1e-9 : 0.0);
+TrackerFilter::TrackerFilter(std::unique_ptr<PoseFilter> engine, double reset_gap_s, double max_ahead_s, Execution exec)
+    : exec_(exec),
+      reset_gap_ns_(reset_gap_s * 1e9),
+      max_ahead_ns_(static_cast<XrTime>(std::max(max_ahead_s, 0.01) * 1e9)),
+      engine_(std::move(engine)),
+      state_(std::make_unique<Published>()),
+      back_(std::make_unique<Published>()),
+      front_(std::make_unique<Published>()) {
+  state_->step = (max_ahead_ns_ + kKnots - 2) / (kKnots - 1);
+  state_->velocity.setConstant(kNaN);
+  if (exec_ != Execution::Inline) worker_ = std::thread([this] { run_worker(); });
 }
-}  // namespace
 
 TrackerFilter::TrackerFilter(const LayerConfig& config)
-    : TrackerFilter(make_layer_engine(config), config.filter.max_gap_s, max_ahead_s(config)) {}
+    : TrackerFilter(make_layer_engine(config), reset_gap_s(config), max_ahead_s(config), execution(config)) {}
 
-bool TrackerFilter::from_history(XrTime t, Pose& out) const noexcept {
-  // Newest to oldest: find consecutive entries a (older) <= t <= b (newer).
-  for (int k = 0; k + 1 < hist_count_; ++k) {
-    const int ib = (hist_head_ - 1 - k + 2 * kHistory) % kHistory;
-    const int ia = (ib - 1 + kHistory) % kHistory;
-    const XrTime ta = hist_t_[ia], tb = hist_t_[ib];
-    if (t > tb) return false;
-    if (t < ta) continue;
-    const double w = tb > ta ? static_cast<double>(t - ta) / static_cast<double>(tb - ta) : 1.0;
-    out = (1.0 - w) * (*hist_pose_)[ia] + w * (*hist_pose_)[ib];  // NaN rows stay NaN
-    return true;
+TrackerFilter::~TrackerFilter() {
+  if (!worker_.joinable()) return;
+  {
+    std::lock_guard lock(in_mu_);
+    stop_ = true;
   }
-  if (hist_count_ > 0 && t == hist_t_[(hist_head_ - 1 + kHistory) % kHistory]) {
-    out = (*hist_pose_)[(hist_head_ - 1 + kHistory) % kHistory];
-    return true;
-  }
-  return false;
+  in_cv_.notify_all();
+  idle_cv_.notify_all();
+  worker_.join();
 }
 
-bool TrackerFilter::update(XrTime sample_time, const Pose* observed, XrTime query_time, Pose& out,
-                           Velocity& velocity) noexcept {
-  std::lock_guard lock(mu_);
-  if (observed && (!has_epoch_ || sample_time > last_)) {
-    if (!has_epoch_) {
-      epoch_ = sample_time;
-      has_epoch_ = true;
-    } else if (hist_count_ > 0 && static_cast<double>(sample_time - last_) > reset_gap_ns_) {
-      // Hand lost for longer than the engine's gap: start over rather than bridge the gap.
-      filter_->reset();
-      hist_count_ = 0;
-      velocity_.setConstant(std::numeric_limits<double>::quiet_NaN());
-    }
-    if (filter_->push(seconds(sample_time), *observed)) {
-      last_ = sample_time;
-      Pose& slot = (*hist_pose_)[hist_head_];
-      filter_->estimate(seconds(sample_time), slot);
-      hist_t_[hist_head_] = sample_time;
-      if (hist_count_ > 0) {
-        const int prev = (hist_head_ - 1 + kHistory) % kHistory;
-        const double dt = static_cast<double>(sample_time - hist_t_[prev]) * 1e-9;
-        const double a = dt / (dt + 1.0 / (2.0 * std::numbers::pi * kVelocityCutoffHz));
-        for (int j = 0; j < kJointCount; ++j)
-          for (int k = 0; k < 3; ++k) {
-            const double d = (slot(j, k) - (*hist_pose_)[prev](j, k)) / dt;
-            double& v = velocity_(j, k);
-            if (!std::isfinite(d)) v = std::numeric_limits<double>::quiet_NaN();
-            else v = std::isfinite(v) ? v + a * (d - v) : d;
-          }
-      }
-      hist_head_ = (hist_head_ + 1) % kHistory;
-      if (hist_count_ < kHistory) ++hist_count_;
-    }
+bool TrackerFilter::update(XrTime sample_time, const Pose* observed, XrTime query_time, Answer& out) noexcept {
+  if (exec_ == Execution::Inline) {
+    if (observed) submit(sample_time, *observed);
+    return answer(query_time, nullptr, out);
   }
-  if (hist_count_ == 0) return false;
+  // The app's sample as the engine will see it (gated), for the innovation correction.
+  Sample pending{sample_time, observed ? *observed : Pose(), Eigen::Vector3d::Zero()};
+  bool usable = false;
+  if (observed) {
+    const GateResult gate = gate_joints(pending.pose, limits_);
+    usable = gate.usable();
+    pending.centre = gate.centre;
+  }
+  if (exec_ == Execution::Lockstep) {
+    // Answer from the state before this sample, as the worker would when it keeps up.
+    {
+      std::unique_lock lock(in_mu_);
+      idle_cv_.wait(lock, [&] { return (q_count_ == 0 && !busy_) || stop_; });
+    }
+    const bool ok = answer(query_time, usable ? &pending : nullptr, out);
+    if (observed) submit(sample_time, *observed);
+    return ok;
+  }
+  if (observed) submit(sample_time, *observed);
+  return answer(query_time, usable ? &pending : nullptr, out);
+}
 
-  bool ok = true;
-  if (query_time >= last_) {
-    if (static_cast<double>(query_time - last_) > max_ahead_ns_) return false;
-    filter_->estimate(seconds(query_time), out);
+void TrackerFilter::submit(XrTime t, const Pose& observed) noexcept {
+  if (exec_ == Execution::Inline) {
+    std::lock_guard lock(engine_mu_);
+    process(Sample{t, observed, Eigen::Vector3d::Zero()});
+    return;
+  }
+  {
+    std::lock_guard lock(in_mu_);
+    // A full queue (the worker fell behind) drops its oldest sample: the newest matter.
+    const int slot = (q_head_ + q_count_) % kQueue;
+    queue_[slot].t = t;
+    queue_[slot].pose = observed;
+    if (q_count_ < kQueue) ++q_count_;
+    else q_head_ = (q_head_ + 1) % kQueue;
+  }
+  in_cv_.notify_one();
+}
+
+void TrackerFilter::run_worker() noexcept {
+  for (;;) {
+    {
+      std::unique_lock lock(in_mu_);
+      in_cv_.wait(lock, [&] { return q_count_ > 0 || stop_; });
+      if (stop_) return;
+      taken_ = queue_[q_head_];
+      q_head_ = (q_head_ + 1) % kQueue;
+      --q_count_;
+      busy_ = true;
+    }
+    process(taken_);
+    {
+      std::lock_guard lock(in_mu_);
+      busy_ = false;
+    }
+    idle_cv_.notify_all();
+  }
+}
+
+void TrackerFilter::restart(XrTime t) noexcept {
+  engine_->reset();
+  running_ = true;
+  behind_ = 0;
+  epoch_ = start_ = last_ = t;
+  state_->start = t;
+  state_->hist_count = 0;
+  state_->velocity.setConstant(kNaN);
+}
+
+void TrackerFilter::process(const Sample& s) noexcept {
+  Pose obs = s.pose;
+  const GateResult gate = gate_joints(obs, limits_);
+  if (!gate.usable()) return;  // nothing plausible: not a sample
+  if (!running_ || s.t <= 0) {
+    if (s.t <= 0) return;
+    restart(s.t);
   } else {
-    ok = from_history(query_time, out);
+    const XrTime dt = s.t - last_;  // both positive: no overflow
+    if (dt < kMinStep) {
+      // A repeat or an older time (apps may ask the past) is not a new sample. Only when
+      // times stay far behind the last sample has the clock been reset (or one far-future
+      // time got in): then start over rather than ignore every later sample.
+      if (static_cast<double>(-dt) <= reset_gap_ns_ || ++behind_ < 3) return;
+      restart(s.t);
+    } else if (static_cast<double>(dt) > reset_gap_ns_ ||
+               hand_jumped(centre_, gate.centre, static_cast<double>(dt) * 1e-9, limits_)) {
+      restart(s.t);  // lost for too long, or somewhere no hand could have moved to
+    }
   }
+  // What the engine had predicted for this sample: its response to the innovation is the
+  // gain of the hand-off correction.
+  Published& st = *state_;
+  Pose pred;
+  const bool have_pred = st.valid && s.t != start_ && st.path_at(s.t, max_ahead_ns_, pred);
+  if (!engine_->push(seconds(s.t), obs)) return;
+  bool first = s.t == start_;
+  last_ = s.t;
+  behind_ = 0;
+  centre_ = gate.centre;
 
-  velocity = velocity_;
-  return ok;
+  Pose est;
+  engine_->estimate(seconds(s.t), est);
+  // An engine far from what it was just given has gone wrong: start over from the input.
+  for (int j = 0; j < kJointCount; ++j) {
+    const bool wild = joint_tracked(obs, j) && !std::isnan(est(j, 0)) &&
+                      !((est.row(j) - obs.row(j)).norm() <= kMaxDeviationM);
+    if (wild) {
+      restart(s.t);
+      engine_->push(0.0, obs);
+      engine_->estimate(0.0, est);
+      first = true;
+      break;
+    }
+  }
+  if (have_pred && !first) {
+    for (int j = 0; j < kJointCount; ++j) {
+      const Eigen::RowVector3d d = obs.row(j) - pred.row(j), r = est.row(j) - pred.row(j);
+      const double den = d.squaredNorm();
+      if (!d.allFinite() || !r.allFinite() || den < 1e-8) continue;  // under 0.1 mm: no information
+      const double g = std::clamp(r.dot(d) / den, 0.0, 1.0);
+      double& gain = st.gain[j];
+      gain = std::isfinite(gain) ? gain + kGainRate * (g - gain) : g;
+    }
+  }
+  // Velocity: finite differences of consecutive estimates, low-passed.
+  if (!first && st.hist_count > 0) {
+    const int prev = (st.hist_head - 1 + kHistory) % kHistory;
+    const double dt = static_cast<double>(s.t - st.hist_t[prev]) * 1e-9;
+    const double a = dt / (dt + 1.0 / (2.0 * std::numbers::pi * kVelocityCutoffHz));
+    for (int j = 0; j < kJointCount; ++j)
+      for (int k = 0; k < 3; ++k) {
+        const double d = (est(j, k) - st.hist[prev](j, k)) / dt;
+        double& v = st.velocity(j, k);
+        if (!std::isfinite(d)) v = kNaN;
+        else v = std::isfinite(v) ? v + a * (d - v) : d;
+      }
+  }
+  st.hist[st.hist_head] = est;
+  st.hist_t[st.hist_head] = s.t;
+  st.hist_head = (st.hist_head + 1) % kHistory;
+  st.hist_count = std::min(st.hist_count + 1, kHistory);
+  st.path[0] = est;
+  for (int k = 1; k < kKnots; ++k) engine_->estimate(seconds(s.t + k * st.step), st.path[k]);
+  st.t0 = s.t;
+  st.valid = true;
+  publish();
+}
+
+void TrackerFilter::publish() noexcept {
+  *back_ = *state_;
+  std::lock_guard lock(pub_mu_);
+  std::swap(front_, back_);
+}
+
+bool TrackerFilter::Published::path_at(XrTime t, XrTime max_ahead, Pose& out) const noexcept {
+  if (t < t0 || t - t0 > max_ahead) return false;
+  const XrTime ahead = t - t0;
+  const XrTime k = std::min<XrTime>(ahead / step, kKnots - 2);
+  const double w = static_cast<double>(ahead - k * step) / static_cast<double>(step);
+  out = (1.0 - w) * path[k] + w * path[k + 1];  // NaN rows stay NaN
+  return true;
+}
+
+bool TrackerFilter::answer(XrTime q, const Sample* pending, Answer& out) const noexcept {
+  std::lock_guard lock(pub_mu_);
+  const Published& p = *front_;
+  out.corrected = false;
+  if (!p.valid || q <= 0) return false;
+  if (q >= p.t0) {
+    if (!p.path_at(q, max_ahead_ns_, out.pose)) return false;
+    Pose pred;
+    if (pending && pending->t > p.t0 && p.path_at(pending->t, max_ahead_ns_, pred)) {
+      // A sample from a hand somewhere else (re-acquired, jumped): the published state is
+      // not about it. Pass the runtime through until the engine has restarted on it.
+      Pose moved = pred;
+      const Eigen::Vector3d was = gate_joints(moved, limits_).centre;
+      if (hand_jumped(was, pending->centre, static_cast<double>(pending->t - p.t0) * 1e-9, limits_)) return false;
+      for (int j = 0; j < kJointCount; ++j) {
+        const Eigen::RowVector3d d = pending->pose.row(j) - pred.row(j);
+        if (d.allFinite() && out.pose.row(j).allFinite() && std::isfinite(p.gain[j])) out.pose.row(j) += p.gain[j] * d;
+      }
+      out.corrected = true;
+    }
+  } else {
+    // Newest to oldest: consecutive entries a (older) <= q <= b (newer).
+    bool found = false;
+    for (int n = 0; n + 1 < p.hist_count && !found; ++n) {
+      const int ib = (p.hist_head - 1 - n + 2 * kHistory) % kHistory;
+      const int ia = (ib - 1 + kHistory) % kHistory;
+      if (q < p.hist_t[ia]) continue;
+      const double w = static_cast<double>(q - p.hist_t[ia]) / static_cast<double>(p.hist_t[ib] - p.hist_t[ia]);
+      out.pose = (1.0 - w) * p.hist[ia] + w * p.hist[ib];
+      found = true;
+    }
+    if (!found) return false;
+  }
+  out.velocity = p.velocity;
+  out.weight = smoothstep(static_cast<double>(p.t0 - p.start) * 1e-9 / kBlendS);
+  return true;
 }
 
 }  // namespace hs::layer

@@ -53,6 +53,12 @@ ShimConfig shim_config_from_env() {
     else if (kind != "sim") throw std::invalid_argument("HANDSTEADY_SHIM_CLOCK: expected sim:<ms> or real[:<ms>], got '" + s + "'");
     if (colon != std::string::npos) c.period_ns = parse_ms(s.substr(colon + 1), "HANDSTEADY_SHIM_CLOCK");
   }
+  if (std::string s = env("HANDSTEADY_SHIM_EPOCH_MS"); !s.empty()) {
+    // 0 and small values are what Monado gives (its clock starts at instance creation).
+    const double ms = parse_number(s, "HANDSTEADY_SHIM_EPOCH_MS");
+    if (!(ms >= 0.0 && ms < 1e12)) throw std::invalid_argument("HANDSTEADY_SHIM_EPOCH_MS: out of range: '" + s + "'");
+    c.epoch_ns = static_cast<int64_t>(ms * 1e6 + 0.5);
+  }
   if (std::string s = env("HANDSTEADY_SHIM_LATENCY_MS"); !s.empty()) {
     const double ms = parse_number(s, "HANDSTEADY_SHIM_LATENCY_MS");
     if (!(ms >= 0.0 && ms < 10'000.0)) throw std::invalid_argument("HANDSTEADY_SHIM_LATENCY_MS: out of range");
@@ -61,9 +67,33 @@ ShimConfig shim_config_from_env() {
   if (c.latency_ns < 0) c.latency_ns = 2 * c.period_ns;
 
   if (std::string s = env("HANDSTEADY_SHIM_FUTURE"); !s.empty()) {
-    if (s == "exact") c.future = FuturePolicy::Exact;
-    else if (s == "hold") c.future = FuturePolicy::Hold;
-    else throw std::invalid_argument("HANDSTEADY_SHIM_FUTURE: expected exact or hold, got '" + s + "'");
+    if (s == "exact") {
+      c.future = FuturePolicy::Exact;
+    } else if (s == "hold") {
+      c.future = FuturePolicy::Hold;
+    } else if (s == "latest") {
+      c.future = FuturePolicy::Latest;
+    } else if (s.rfind("extrapolate", 0) == 0) {
+      c.future = FuturePolicy::Extrapolate;
+      // extrapolate[:<capture_hz>:<capture_latency_ms>]
+      if (s != "extrapolate") {
+        const auto a = s.find(':'), b = s.find(':', a + 1);
+        if (a != 11 || b == std::string::npos)
+          throw std::invalid_argument("HANDSTEADY_SHIM_FUTURE: expected extrapolate:<capture_hz>:<latency_ms>, got '" + s + "'");
+        c.capture_hz = parse_number(s.substr(a + 1, b - a - 1), "HANDSTEADY_SHIM_FUTURE capture_hz");
+        const double ms = parse_number(s.substr(b + 1), "HANDSTEADY_SHIM_FUTURE latency_ms");
+        if (!(c.capture_hz >= 1.0 && c.capture_hz <= 1000.0) || !(ms >= 0.0 && ms <= 1000.0))
+          throw std::invalid_argument("HANDSTEADY_SHIM_FUTURE: capture_hz in [1, 1000], latency_ms in [0, 1000]");
+        c.capture_latency_ns = static_cast<int64_t>(ms * 1e6 + 0.5);
+      }
+    } else {
+      throw std::invalid_argument("HANDSTEADY_SHIM_FUTURE: expected exact, hold, latest or extrapolate[:hz:ms], got '" + s + "'");
+    }
+  }
+  if (std::string s = env("HANDSTEADY_SHIM_FRAMES"); !s.empty()) {
+    if (s == "normal") c.frames = FrameMode::Normal;
+    else if (s == "headless-zero") c.frames = FrameMode::HeadlessZero;
+    else throw std::invalid_argument("HANDSTEADY_SHIM_FRAMES: expected normal or headless-zero, got '" + s + "'");
   }
   c.head_motion = env("HANDSTEADY_SHIM_HEAD_MOTION") == "1";
 
@@ -80,6 +110,9 @@ ShimConfig shim_config_from_env() {
       if (kind == "nan") c.faults.nan = p;
       else if (kind == "huge") c.faults.huge = p;
       else if (kind == "quat") c.faults.quat = p;
+      else if (kind == "origin") c.faults.origin = p;
+      else if (kind == "space") c.faults.space = p;
+      else if (kind == "velocity") c.faults.velocity = p;
       else throw std::invalid_argument("HANDSTEADY_SHIM_FAULTS: unknown fault '" + kind + "'");
       if (comma == std::string::npos) break;
       start = comma + 1;

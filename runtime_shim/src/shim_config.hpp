@@ -2,6 +2,7 @@
 // Environment configuration of the replay runtime (read at each xrCreateInstance).
 // See docs/OPENXR_LAYER.md "Replay runtime" for the variables and their meaning.
 #include <cstdint>
+#include <optional>
 #include <string>
 
 namespace hs::shim {
@@ -9,12 +10,24 @@ namespace hs::shim {
 enum class FuturePolicy {
   Exact,  // a query for time T answers the recorded track at T, even in the future
   Hold,   // T later than the simulated "now" answers the track at now (a runtime without prediction)
+  Latest, // any T answers the track at now (its newest pose whatever the time: Monado's remote driver)
+  Extrapolate,  // captures at capture_hz, latency_ms old; any T is extrapolated at constant velocity
+                // from the last two captures available at now (Quest-style runtime prediction)
+};
+
+enum class FrameMode {
+  Normal,        // xrWaitFrame predicts the display time; xrBeginFrame/xrEndFrame work
+  HeadlessZero,  // Monado's headless session (null compositor): xrWaitFrame returns at once
+                 // with predictedDisplayTime 0, xrBeginFrame/xrEndFrame fail (call order)
 };
 
 struct FaultRates {
   double nan = 0.0;   // per joint per answered time: position becomes NaN (flags stay valid)
   double huge = 0.0;  // position becomes 1e30
   double quat = 0.0;  // orientation becomes (0,0,0,0)
+  double origin = 0.0;  // position becomes the origin or a denormal (flags stay tracked)
+  double space = 0.0;   // per xrLocateSpace call: the pose becomes NaN or 1e30 (flags valid)
+  double velocity = 0.0;  // per joint: linear velocity becomes 1e6 m/s or NaN (flags valid)
 };
 
 struct ShimConfig {
@@ -23,10 +36,15 @@ struct ShimConfig {
   uint64_t corrupt_seed = 0;
   bool real_clock = false;       // HANDSTEADY_SHIM_CLOCK=sim:<period_ms> | real[:<period_ms>]
   int64_t period_ns = 11'111'111;  // 90 Hz
+  std::optional<int64_t> epoch_ns;  // HANDSTEADY_SHIM_EPOCH_MS: XrTime at xrCreateInstance
+                                    // (none: 1 s on the simulated clock, CLOCK_MONOTONIC on the real one)
   int64_t latency_ns = -1;       // HANDSTEADY_SHIM_LATENCY_MS (display time - now); -1: 2 periods
-  FuturePolicy future = FuturePolicy::Exact;  // HANDSTEADY_SHIM_FUTURE=exact|hold
+  FuturePolicy future = FuturePolicy::Exact;  // HANDSTEADY_SHIM_FUTURE=exact|hold|latest|extrapolate[:<capture_hz>:<capture_latency_ms>]
+  double capture_hz = 30.0;        // extrapolate: the tracker's capture rate
+  int64_t capture_latency_ns = 30'000'000;  // extrapolate: a capture is available this long after its time
+  FrameMode frames = FrameMode::Normal;       // HANDSTEADY_SHIM_FRAMES=normal|headless-zero
   bool head_motion = false;      // HANDSTEADY_SHIM_HEAD_MOTION=1
-  FaultRates faults;             // HANDSTEADY_SHIM_FAULTS=nan:<p>,huge:<p>,quat:<p>
+  FaultRates faults;             // HANDSTEADY_SHIM_FAULTS=nan:<p>,huge:<p>,quat:<p>,origin:<p>,space:<p>,velocity:<p>
 };
 
 // Throws std::invalid_argument naming the variable on malformed values.

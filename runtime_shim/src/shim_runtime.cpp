@@ -65,6 +65,8 @@ struct Runtime {
   double t0 = 0.0;             // track time mapped to epoch
   XrTime epoch = kSimEpochNs;  // XrTime of t0
   XrTime sim_now = kSimEpochNs;
+  XrTime mono_at_tick = 0;     // sim clock: CLOCK_MONOTONIC when sim_now last advanced
+  int64_t real_offset = 0;     // real clock: XrTime = CLOCK_MONOTONIC - real_offset
   uint64_t next_handle = 0x100;
   std::map<uint64_t, SessionData> sessions;
   std::map<uint64_t, SpaceData> spaces;
@@ -88,7 +90,14 @@ XrTime monotonic_ns() {
 }
 
 // Current runtime time (caller holds the lock).
-XrTime now_locked(const Runtime& r) { return r.cfg.real_clock ? monotonic_ns() : r.sim_now; }
+XrTime now_locked(const Runtime& r) { return r.cfg.real_clock ? monotonic_ns() - r.real_offset : r.sim_now; }
+
+// A CLOCK_MONOTONIC time as this runtime's XrTime. Sim clock: sim_now plus the real time
+// since it last advanced, at most one period (a frame's worth of real time maps into it).
+XrTime monotonic_to_xr(const Runtime& r, XrTime mono) {
+  if (r.cfg.real_clock) return mono - r.real_offset;
+  return r.sim_now + std::clamp<XrTime>(mono - r.mono_at_tick, 0, r.cfg.period_ns - 1);
+}
 
 double track_time(const Runtime& r, XrTime t) { return r.t0 + static_cast<double>(t - r.epoch) * 1e-9; }
 
@@ -150,7 +159,25 @@ std::array<Eigen::Matrix3d, kJointCount> joint_frames(const Pose& p, XrHandEXT h
 Pose hand_at(const Runtime& r, XrHandEXT hand, XrTime t) {
   const auto& series = r.hands[hand == XR_HAND_LEFT_EXT ? 0 : 1];
   if (series.empty()) return untracked_pose();
-  if (r.cfg.future == FuturePolicy::Hold) t = std::min(t, now_locked(r));
+  const XrTime now = now_locked(r);
+  switch (r.cfg.future) {
+    case FuturePolicy::Exact: break;
+    case FuturePolicy::Hold: t = std::min(t, now); break;
+    case FuturePolicy::Latest: t = now; break;
+    case FuturePolicy::Extrapolate: {
+      // The newest capture available now and the one before, on the capture grid.
+      const double period = 1.0 / r.cfg.capture_hz;
+      const double newest = std::floor(track_time(r, std::min(t, now) - r.cfg.capture_latency_ns) / period) * period;
+      const Pose a = interpolate_pose(series, newest - period), b = interpolate_pose(series, newest);
+      const double ahead = track_time(r, t) - newest;
+      if (ahead <= 0.0) return interpolate_pose(series, track_time(r, t));
+      if (!any_joint_tracked(b)) return b;
+      Pose out = b + (b - a) * (ahead / period);  // joints missing in a stay missing
+      for (int j = 0; j < kJointCount; ++j)
+        if (!joint_tracked(a, j) && joint_tracked(b, j)) out.row(j) = b.row(j);
+      return out;
+    }
+  }
   return interpolate_pose(series, track_time(r, t));
 }
 
@@ -257,8 +284,11 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateInstance(const XrInstanceCreateInfo* info, 
   for (const auto& s : r.hands)
     if (!s.empty()) t0 = std::min(t0, s.t.front());
   r.t0 = std::isfinite(t0) ? t0 : 0.0;
-  r.epoch = r.cfg.real_clock ? monotonic_ns() : kSimEpochNs;
+  const XrTime mono = monotonic_ns();
+  r.epoch = r.cfg.epoch_ns.value_or(r.cfg.real_clock ? mono : kSimEpochNs);
+  r.real_offset = mono - r.epoch;
   r.sim_now = r.epoch;
+  r.mono_at_tick = monotonic_ns();
   r.ext_hand = hand;
   r.ext_headless = headless;
   r.ext_timespec = timespec;
@@ -333,8 +363,9 @@ XRAPI_ATTR XrResult XRAPI_CALL ConvertTimespecTimeToTimeKHR(XrInstance instance,
   std::lock_guard lock(r.mu);
   if (!instance_ok(r, instance)) return XR_ERROR_HANDLE_INVALID;
   if (!ts || !time) return XR_ERROR_VALIDATION_FAILURE;
-  // XrTime counts nanoseconds of CLOCK_MONOTONIC (real clock) or of the simulated clock.
-  *time = static_cast<XrTime>(ts->tv_sec) * 1'000'000'000 + ts->tv_nsec;
+  // XrTime counts nanoseconds of CLOCK_MONOTONIC (real clock, less the epoch's offset) or
+  // of the simulated clock.
+  *time = monotonic_to_xr(r, static_cast<XrTime>(ts->tv_sec) * 1'000'000'000 + ts->tv_nsec);
   return *time > 0 ? XR_SUCCESS : XR_ERROR_TIME_INVALID;
 }
 XRAPI_ATTR XrResult XRAPI_CALL ConvertTimeToTimespecTimeKHR(XrInstance instance, XrTime time, timespec* ts) {
@@ -343,8 +374,10 @@ XRAPI_ATTR XrResult XRAPI_CALL ConvertTimeToTimespecTimeKHR(XrInstance instance,
   if (!instance_ok(r, instance)) return XR_ERROR_HANDLE_INVALID;
   if (!ts) return XR_ERROR_VALIDATION_FAILURE;
   if (time <= 0) return XR_ERROR_TIME_INVALID;
-  ts->tv_sec = static_cast<time_t>(time / 1'000'000'000);
-  ts->tv_nsec = static_cast<long>(time % 1'000'000'000);
+  // The inverse mapping.
+  const int64_t ns = r.cfg.real_clock ? time + r.real_offset : r.mono_at_tick + (time - r.sim_now);
+  ts->tv_sec = static_cast<time_t>(ns / 1'000'000'000);
+  ts->tv_nsec = static_cast<long>(ns % 1'000'000'000);
   return XR_SUCCESS;
 }
 
@@ -486,21 +519,34 @@ XRAPI_ATTR XrResult XRAPI_CALL WaitFrame(XrSession session, const XrFrameWaitInf
   if ((info && info->type != XR_TYPE_FRAME_WAIT_INFO) || !state || state->type != XR_TYPE_FRAME_STATE)
     return XR_ERROR_VALIDATION_FAILURE;
   if (!s->running) return XR_ERROR_SESSION_NOT_RUNNING;
+  if (r.cfg.frames == FrameMode::HeadlessZero) {
+    // Monado's headless session (no compositor): xrWaitFrame returns at once, without
+    // pacing, and gives no times; no frame counts as waited, so xrBeginFrame and then
+    // xrEndFrame fail with XR_ERROR_CALL_ORDER_INVALID. The app times itself
+    // (xrConvertTimespecTimeToTimeKHR). The simulated clock still runs.
+    if (!r.cfg.real_clock) r.sim_now += r.cfg.period_ns;
+    state->predictedDisplayTime = 0;
+    state->predictedDisplayPeriod = 0;
+    state->shouldRender = XR_FALSE;
+    return XR_SUCCESS;
+  }
   XrTime now = 0;
   if (r.cfg.real_clock) {
     // Sleep to the next period boundary since the epoch (without holding the lock).
     const int64_t period = r.cfg.period_ns;
     const XrTime epoch = r.epoch;
+    const int64_t offset = r.real_offset;
     lock.unlock();
-    const XrTime t = monotonic_ns();
+    const XrTime t = monotonic_ns() - offset;
     const XrTime next = epoch + ((t - epoch) / period + 1) * period;
     std::this_thread::sleep_for(std::chrono::nanoseconds(next - t));
     lock.lock();
     s = find_session(r, session);
     if (!s) return XR_ERROR_HANDLE_INVALID;
-    now = monotonic_ns();
+    now = now_locked(r);
   } else {
     r.sim_now += r.cfg.period_ns;
+    r.mono_at_tick = monotonic_ns();
     now = r.sim_now;
   }
   s->frame_waited = true;
@@ -586,6 +632,13 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateSpace(XrSpace space, XrSpace baseSpace, XrT
   location->pose = xr::to_xr(space_in_world(r, b->second, t).inverse() * space_in_world(r, a->second, t));
   location->locationFlags = XR_SPACE_LOCATION_ORIENTATION_VALID_BIT | XR_SPACE_LOCATION_POSITION_VALID_BIT |
                             XR_SPACE_LOCATION_ORIENTATION_TRACKED_BIT | XR_SPACE_LOCATION_POSITION_TRACKED_BIT;
+  // Injected fault: an impossible pose flagged valid (alternately NaN and 1e30).
+  if (r.cfg.faults.space > 0.0 && space != baseSpace &&
+      fault_draw(time, static_cast<int>(id_of(space) & 0xff), static_cast<int>(id_of(baseSpace) & 0xff), 4) <
+          r.cfg.faults.space) {
+    const float bad = fault_draw(time, 0, 0, 5) < 0.5 ? std::numeric_limits<float>::quiet_NaN() : 1e30f;
+    location->pose.position = {bad, bad, bad};
+  }
   for (auto* s = static_cast<XrBaseOutStructure*>(location->next); s; s = s->next)
     if (s->type == XR_TYPE_SPACE_VELOCITY) reinterpret_cast<XrSpaceVelocity*>(s)->velocityFlags = 0;
   return XR_SUCCESS;
@@ -698,13 +751,19 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
   }
   // Injected faults: garbage a buggy runtime might produce, flags untouched.
   const FaultRates& f = r.cfg.faults;
-  if (f.nan > 0.0 || f.huge > 0.0 || f.quat > 0.0) {
+  if (f.nan > 0.0 || f.huge > 0.0 || f.quat > 0.0 || f.origin > 0.0 || f.velocity > 0.0) {
     const int h = hand == XR_HAND_LEFT_EXT ? 0 : 1;
     for (int j = 0; j < kJointCount; ++j) {
       XrHandJointLocationEXT& loc = out->jointLocations[j];
       if (fault_draw(info->time, h, j, 1) < f.nan) loc.pose.position.x = std::numeric_limits<float>::quiet_NaN();
       if (fault_draw(info->time, h, j, 2) < f.huge) loc.pose.position = {1e30f, -1e30f, 1e30f};
       if (fault_draw(info->time, h, j, 3) < f.quat) loc.pose.orientation = {0.f, 0.f, 0.f, 0.f};
+      if (fault_draw(info->time, h, j, 6) < f.origin)
+        loc.pose.position = fault_draw(info->time, h, j, 7) < 0.5 ? XrVector3f{0.f, 0.f, 0.f} : XrVector3f{1e-40f, 0.f, -1e-40f};
+      if (vel && fault_draw(info->time, h, j, 8) < f.velocity)
+        vel->jointVelocities[j].linearVelocity =
+            fault_draw(info->time, h, j, 9) < 0.5 ? XrVector3f{1e6f, -1e6f, 1e6f}
+                                                   : XrVector3f{std::numeric_limits<float>::quiet_NaN(), 0.f, 0.f};
     }
   }
   return XR_SUCCESS;

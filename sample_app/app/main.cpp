@@ -4,6 +4,7 @@
 // and HandSteady's, each with its ink: the index fingertip's trail while thumb tip and
 // index tip pinch. In a GLFW window when a display exists, else headless through OSMesa,
 // writing PNG frames, the final composite, the trajectory plot and a metrics summary.
+// On a headless session without frame timing (Monado's) it times its own frames.
 #include "handsteady/filters.hpp"
 #include "handsteady/ink.hpp"
 #include "handsteady/model_path.hpp"
@@ -12,6 +13,7 @@
 #include "handsteady/track_ops.hpp"
 #include "handsteady_render/context.hpp"
 #include "handsteady_render/renderer.hpp"
+#include "framing.hpp"
 #include "panel.hpp"
 #include "report.hpp"
 #include "xr_hands.hpp"
@@ -35,6 +37,7 @@ struct Options {
   int frames_every = 0;
   int panel_width = 640, panel_height = 480;
   double predict_ms = 50.0;  // the plot's Multi-STGAE prediction from the raw joints; 0 = none
+  double fps = 90.0;         // frame rate when the runtime times no frames (headless session)
   bool window = false, headless = false;
 };
 
@@ -82,7 +85,9 @@ int run(const Options& opt) {
     return truth ? truth_t0 + static_cast<double>(T - opt.truth_epoch_ns) * 1e-9 : static_cast<double>(T) * 1e-9;
   };
 
-  hs::demo::XrHands xr({});
+  hs::demo::XrHandsOptions xr_options;
+  xr_options.fps = opt.fps;
+  hs::demo::XrHands xr(xr_options);
   fmt::print("demo: runtime '{}', raw side channel {}\n", xr.runtime_name(),
              xr.has_raw() ? "on (HandSteady layer active)" : "unavailable (layer not active): one panel");
 
@@ -113,10 +118,17 @@ int run(const Options& opt) {
     rec[0] = {"app", "as received", {}, {}};
   }
 
-  // One frame: a panel per view, labelled, with its ink and hand.
+  // One frame: a panel per view, labelled, with its ink and hand, the camera framing
+  // every joint seen so far.
+  hs::demo::ViewFraming framing(scene);
+  bool reframed = false;
   XrTime first_T = 0, last_seen_T = 0, last_T = 0;
   auto draw = [&](XrTime T, const std::vector<hs::Pose>& poses) {
     last_T = T;
+    if (!reframed && framing.reframed(viewports.front().aspect())) {
+      reframed = true;
+      fmt::print("demo: joints outside the default view: the camera backs off to show them\n");
+    }
     renderer.begin_frame(Color::rgb8(210, 210, 205));
     for (int p = 0; p < panels; ++p) {
       const auto& ir = ink[static_cast<size_t>(p)];
@@ -128,7 +140,8 @@ int run(const Options& opt) {
       c.ink = &ir.strokes();
       c.hand = &poses[static_cast<size_t>(p)];
       c.pen_down = ir.pen_down();
-      hs::demo::draw_panel(renderer, viewports[static_cast<size_t>(p)], scene, c);
+      const auto& vp = viewports[static_cast<size_t>(p)];
+      hs::demo::draw_panel(renderer, vp, framing.camera(vp.aspect()), scene, c);
     }
   };
   std::vector<hs::Pose> last_poses(static_cast<size_t>(panels), hs::untracked_pose());
@@ -144,6 +157,7 @@ int run(const Options& opt) {
       const bool raw = panels == 2 && p == 0;
       poses[static_cast<size_t>(p)] = xr.locate(hs::Hand::Right, T, raw);
       const hs::Pose& pose = poses[static_cast<size_t>(p)];
+      framing.add(pose);
       if (hs::any_joint_tracked(pose)) {
         any = true;
         if (rec[static_cast<size_t>(p)].seen.t.empty() || t > rec[static_cast<size_t>(p)].seen.t.back()) {
@@ -217,6 +231,8 @@ int main(int argc, char** argv) {
   app.add_option("--predict-ms", opt.predict_ms,
                  "Plot and score a Multi-STGAE prediction this far ahead from the raw joints (0: none)")
       ->check(CLI::Range(0.0, 500.0))->capture_default_str();
+  app.add_option("--fps", opt.fps, "Frame rate when the runtime gives no display times (e.g. Monado's headless session)")
+      ->check(CLI::Range(1.0, 1000.0))->capture_default_str();
   auto* w = app.add_flag("--window", opt.window, "Open a GLFW window (default when a display exists)");
   app.add_flag("--headless", opt.headless, "Render offscreen through OSMesa even with a display")->excludes(w);
   CLI11_PARSE(app, argc, argv);

@@ -36,14 +36,12 @@ SceneGeometry scene_from_strokes(const std::vector<Polyline>& strokes) {
   return s;
 }
 
-void draw_panel(render::Renderer& r, const render::Viewport& vp, const SceneGeometry& scene,
-                const PanelContent& content) {
+void draw_panel(render::Renderer& r, const render::Viewport& vp, const render::Camera& camera,
+                const SceneGeometry& scene, const PanelContent& content) {
   using render::Color;
   r.set_viewport(vp);
   r.clear_viewport(Color::rgb8(246, 246, 242));
-  // The eye 0.45 m in front of the plane, as the user (LOCAL origin = head).
-  const float height = std::max(scene.visible_height_m, 1.15f * scene.text_width_m / vp.aspect());
-  r.set_camera(render::Camera::facing_plane(vp.aspect(), -scene.plane_z, scene.centre, height));
+  r.set_camera(camera);
   // Guide strokes of the font: what the user means to write.
   if (!scene.guides.empty()) {
     const Color guide = Color::rgb8(200, 200, 215);

@@ -1,6 +1,7 @@
 #pragma once
 // One panel of the demo: the writing plane with the font's guide strokes, the ink, the
-// right hand as the app received it, and a label. Same camera for every panel.
+// right hand as the app received it, and a label. Same camera for every panel
+// (framing.hpp).
 #include "handsteady/ink.hpp"
 #include "handsteady_render/renderer.hpp"
 
@@ -20,7 +21,6 @@ struct PanelContent {
 
 struct SceneGeometry {
   std::vector<std::vector<glm::vec3>> guides;  // font strokes (faint), converted once; may be empty
-  render::Camera camera;         // set per panel aspect by draw_panel
   float plane_z = -0.45f;
   glm::vec2 centre{0.0f, 0.0f};
   float visible_height_m = 0.30f;  // of the plane, for a 4:3 panel
@@ -30,7 +30,7 @@ struct SceneGeometry {
 // Camera and plane placement from the font strokes (their bounding box), else defaults.
 SceneGeometry scene_from_strokes(const std::vector<Polyline>& strokes);
 
-void draw_panel(render::Renderer& r, const render::Viewport& vp, const SceneGeometry& scene,
-                const PanelContent& content);
+void draw_panel(render::Renderer& r, const render::Viewport& vp, const render::Camera& camera,
+                const SceneGeometry& scene, const PanelContent& content);
 
 }  // namespace hs::demo

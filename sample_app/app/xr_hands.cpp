@@ -18,10 +18,15 @@ namespace {
 
 constexpr const char* kLayer = "XR_APILAYER_NOVENDOR_handsteady";
 
+std::string result_name(XrInstance instance, XrResult r) {
+  char name[XR_MAX_RESULT_STRING_SIZE] = {};
+  if (XR_FAILED(xrResultToString(instance, r, name))) std::snprintf(name, sizeof name, "%d", r);
+  return name;
+}
+
 void check(XrInstance instance, XrResult r, const char* what) {
   if (XR_SUCCEEDED(r)) return;
-  char name[XR_MAX_RESULT_STRING_SIZE] = {};
-  if (instance == XR_NULL_HANDLE || XR_FAILED(xrResultToString(instance, r, name))) std::snprintf(name, sizeof name, "%d", r);
+  const std::string name = instance == XR_NULL_HANDLE ? std::to_string(r) : result_name(instance, r);
   throw std::runtime_error(fmt::format("OpenXR: {} failed: {}", what, name));
 }
 
@@ -32,15 +37,14 @@ PFN proc(XrInstance instance, const char* name) {
   return reinterpret_cast<PFN>(f);
 }
 
-// Whether the HandSteady layer (enabled or not) offers its raw-joints extension.
-bool layer_offers_raw() {
+// Whether `layer` (nullptr: the runtime and implicit layers) offers `extension`.
+bool offers(const char* layer, std::string_view extension) {
   uint32_t count = 0;
-  if (XR_FAILED(xrEnumerateInstanceExtensionProperties(kLayer, 0, &count, nullptr))) return false;
+  if (XR_FAILED(xrEnumerateInstanceExtensionProperties(layer, 0, &count, nullptr))) return false;
   std::vector<XrExtensionProperties> props(count, XrExtensionProperties{XR_TYPE_EXTENSION_PROPERTIES, nullptr, {}, 0});
-  if (XR_FAILED(xrEnumerateInstanceExtensionProperties(kLayer, count, &count, props.data()))) return false;
-  return std::any_of(props.begin(), props.end(), [](const XrExtensionProperties& p) {
-    return std::string_view(p.extensionName) == XR_NOVENDOR_HANDSTEADY_RAW_JOINTS_EXTENSION_NAME;
-  });
+  if (XR_FAILED(xrEnumerateInstanceExtensionProperties(layer, count, &count, props.data()))) return false;
+  return std::any_of(props.begin(), props.end(),
+                     [&](const XrExtensionProperties& p) { return std::string_view(p.extensionName) == extension; });
 }
 
 // Whether XR_ENABLE_API_LAYERS already puts the layer in the chain.
@@ -51,10 +55,13 @@ bool layer_enabled_by_environment() {
 
 }  // namespace
 
-XrHands::XrHands(const XrHandsOptions& options) {
+XrHands::XrHands(const XrHandsOptions& options) : fps_(options.fps) {
   std::vector<const char*> ext = {XR_EXT_HAND_TRACKING_EXTENSION_NAME, XR_MND_HEADLESS_EXTENSION_NAME};
+  // For a session whose xrWaitFrame gives no display time (Monado's headless one).
+  const bool timespec = offers(nullptr, XR_KHR_CONVERT_TIMESPEC_TIME_EXTENSION_NAME);
+  if (timespec) ext.push_back(XR_KHR_CONVERT_TIMESPEC_TIME_EXTENSION_NAME);
   std::vector<const char*> layers;
-  if (options.want_raw && layer_offers_raw()) {
+  if (options.want_raw && offers(kLayer, XR_NOVENDOR_HANDSTEADY_RAW_JOINTS_EXTENSION_NAME)) {
     ext.push_back(XR_NOVENDOR_HANDSTEADY_RAW_JOINTS_EXTENSION_NAME);
     // The extension needs the layer in the chain: ask for it unless the environment does.
     if (!layer_enabled_by_environment()) layers.push_back(kLayer);
@@ -106,6 +113,8 @@ XrHands::XrHands(const XrHandsOptions& options) {
   create_tracker_ = proc<PFN_xrCreateHandTrackerEXT>(instance_, "xrCreateHandTrackerEXT");
   destroy_tracker_ = proc<PFN_xrDestroyHandTrackerEXT>(instance_, "xrDestroyHandTrackerEXT");
   locate_ = proc<PFN_xrLocateHandJointsEXT>(instance_, "xrLocateHandJointsEXT");
+  if (timespec)
+    convert_timespec_ = proc<PFN_xrConvertTimespecTimeToTimeKHR>(instance_, "xrConvertTimespecTimeToTimeKHR");
   if (std::find_if(ext.begin(), ext.end(), [](const char* e) {
         return std::string_view(e) == XR_NOVENDOR_HANDSTEADY_RAW_JOINTS_EXTENSION_NAME;
       }) != ext.end())
@@ -142,19 +151,48 @@ void XrHands::poll_events() {
   }
 }
 
+void XrHands::frame_call_failed(XrResult r, const char* what, bool& reported) {
+  if (r == XR_ERROR_SESSION_LOST || r == XR_ERROR_INSTANCE_LOST) check(instance_, r, what);
+  if (reported) return;
+  reported = true;
+  fmt::print("demo: {} failed ({}): no frame reaches the runtime's compositor (a headless session); "
+             "the hands and ink carry on\n",
+             what, result_name(instance_, r));
+}
+
 XrTime XrHands::begin_frame() {
   poll_events();
   XrFrameState fs{XR_TYPE_FRAME_STATE, nullptr, 0, 0, XR_FALSE};
   XrFrameWaitInfo wi{XR_TYPE_FRAME_WAIT_INFO, nullptr};
   check(instance_, xrWaitFrame(session_, &wi, &fs), "xrWaitFrame");
+  XrTime time = fs.predictedDisplayTime;
+  if (time <= 0) {
+    // No display time and, on Monado's headless session, no pacing either: time the
+    // frames ourselves, or the loop would spin.
+    if (!clock_) {
+      if (!convert_timespec_)
+        throw std::runtime_error("OpenXR: xrWaitFrame gives no display time and the runtime lacks "
+                                 "XR_KHR_convert_timespec_time to time the frames otherwise");
+      clock_.emplace(instance_, convert_timespec_, fps_);
+      fmt::print("demo: xrWaitFrame gives no display time (a headless session): frames timed at {:g} Hz from "
+                 "CLOCK_MONOTONIC through xrConvertTimespecTimeToTimeKHR\n",
+                 fps_);
+    }
+    time = clock_->next();
+  }
   XrFrameBeginInfo bi{XR_TYPE_FRAME_BEGIN_INFO, nullptr};
-  check(instance_, xrBeginFrame(session_, &bi), "xrBeginFrame");
-  return fs.predictedDisplayTime;
+  const XrResult r = xrBeginFrame(session_, &bi);
+  frame_begun_ = XR_SUCCEEDED(r);
+  if (!frame_begun_) frame_call_failed(r, "xrBeginFrame", begin_reported_);
+  return time;
 }
 
 void XrHands::end_frame(XrTime display_time) {
+  if (!frame_begun_) return;  // ending a frame that never began is a call-order error
+  frame_begun_ = false;
   XrFrameEndInfo ei{XR_TYPE_FRAME_END_INFO, nullptr, display_time, XR_ENVIRONMENT_BLEND_MODE_OPAQUE, 0, nullptr};
-  check(instance_, xrEndFrame(session_, &ei), "xrEndFrame");
+  const XrResult r = xrEndFrame(session_, &ei);
+  if (XR_FAILED(r)) frame_call_failed(r, "xrEndFrame", end_reported_);
 }
 
 Pose XrHands::locate(Hand hand, XrTime time, bool raw) const {

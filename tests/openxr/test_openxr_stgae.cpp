@@ -107,6 +107,7 @@ TEST_CASE("stgae by HANDSTEADY_METHOD, denoise and predict: finite answers, runt
   const TrackFiles f = make_tracks("stgae", 3.0, 0.003, true);  // the right hand leaves for 1 s
   const auto model = random_model(f.dir);
   reset_env(f);
+  set_env("HANDSTEADY_WORKER", "lockstep");  // simulated clock: deterministic hand-off
   set_env("HANDSTEADY_SHIM_HEAD_MOTION", "1");
   const auto runtime = run_frames(200);
   for (const std::string mode : {"denoise", "predict"}) {
@@ -114,6 +115,8 @@ TEST_CASE("stgae by HANDSTEADY_METHOD, denoise and predict: finite answers, runt
     const auto rec = f.dir / ("rec_" + mode);
     std::filesystem::remove_all(rec);
     reset_env(f);
+    set_env("HANDSTEADY_WORKER", "lockstep");  // simulated clock: deterministic hand-off
+  set_env("HANDSTEADY_WORKER", "lockstep");  // simulated clock: deterministic hand-off
     set_env("HANDSTEADY_SHIM_HEAD_MOTION", "1");
     set_env("HANDSTEADY_METHOD", "stgae");
     set_env("HANDSTEADY_MODEL", model.string());
@@ -142,6 +145,8 @@ TEST_CASE("stgae chosen by the configuration file, and by default when HANDSTEAD
     const auto rec = f.dir / (by_file ? "rec_file" : "rec_default");
     std::filesystem::remove_all(rec);
     reset_env(f);
+    set_env("HANDSTEADY_WORKER", "lockstep");  // simulated clock: deterministic hand-off
+  set_env("HANDSTEADY_WORKER", "lockstep");  // simulated clock: deterministic hand-off
     unset_env("HANDSTEADY_METHOD");  // these cases test the layer's own choice of engine
     if (by_file) set_env("HANDSTEADY_CONFIG", cfg.string());
     else set_env("HANDSTEADY_MODEL", model.string());  // no method: a model is found -> stgae
@@ -162,6 +167,8 @@ TEST_CASE("a corrupt model falls back to the mode's classical filter, which stil
     const auto rec = f.dir / (explicit_method ? "rec_method" : "rec_default");
     std::filesystem::remove_all(rec);
     reset_env(f);
+    set_env("HANDSTEADY_WORKER", "lockstep");  // simulated clock: deterministic hand-off
+  set_env("HANDSTEADY_WORKER", "lockstep");  // simulated clock: deterministic hand-off
     unset_env("HANDSTEADY_METHOD");  // these cases test the layer's own choice of engine
     if (explicit_method) set_env("HANDSTEADY_METHOD", "stgae");
     set_env("HANDSTEADY_MODEL", bad.string());

@@ -88,3 +88,61 @@ TEST_CASE("several threads locate the same trackers at various times and spaces"
   CHECK(insane.load() == 0);
   app.shutdown();
 }
+
+// Eight threads on one tracker with faulty runtime data (NaN, 1e30, origin joints and
+// garbage velocities flagged valid), at the frame's time and a few ms around it: every
+// answer is finite and near the hand, every velocity flagged valid is finite and plausible.
+// With the classical engine (inline, under the tracker's lock) and with the shipped model
+// on its worker thread.
+TEST_CASE("eight threads on one tracker with faulty data: finite, plausible answers") {
+  const TrackFiles f = make_tracks("threads_faults", 3.0);
+  for (const bool model : {false, true}) {
+    CAPTURE(model);
+    reset_env(f);
+    set_env("HANDSTEADY_SHIM_FAULTS", "nan:0.02,huge:0.02,origin:0.02,velocity:0.05");
+    if (model) unset_env("HANDSTEADY_METHOD");  // the shipped model, worker thread
+    enable_layers({kLayer});
+    App app;
+    std::atomic<XrTime> now{app.frame()};
+    std::atomic<bool> stop{false};
+    std::atomic<long> calls{0}, failures{0}, bad_velocity{0}, far{0};
+    auto worker = [&](int id) {
+      long i = 0;
+      while (!stop.load()) {
+        const XrTime T = now.load();
+        const XrTime t = T + static_cast<XrTime>((i * 5 + id) % 7 - 3) * 1'000'000;  // T +- 3 ms
+        const Joints j = app.locate(XR_HAND_RIGHT_EXT, app.local, t, true);
+        ++calls;
+        if (j.result != XR_SUCCESS) ++failures;
+        if (j.result == XR_SUCCESS && j.active) {
+          const Pose truth = interpolate_pose(f.clean_series[1], track_time(f, t));
+          for (int k = 0; k < kJointCount; ++k) {
+            const Eigen::Vector3d p = xr::to_eigen(j.loc[k].pose.position);
+            if (!p.allFinite() || (joint_tracked(truth, k) && (p - truth.row(k).transpose()).norm() > 0.1)) ++far;
+            const auto& v = j.vel[k];
+            if ((v.velocityFlags & XR_SPACE_VELOCITY_LINEAR_VALID_BIT) &&
+                (!xr::finite(v.linearVelocity) || xr::to_eigen(v.linearVelocity).norm() > 10.0))
+              ++bad_velocity;
+          }
+        }
+        ++i;
+        std::this_thread::sleep_for(std::chrono::microseconds(100));
+      }
+    };
+    std::vector<std::thread> threads;
+    for (int id = 0; id < 8; ++id) threads.emplace_back(worker, id);
+    for (int frame = 0; frame < 150; ++frame) {
+      now = app.frame();
+      std::this_thread::sleep_for(std::chrono::microseconds(500));
+    }
+    stop = true;
+    for (auto& t : threads) t.join();
+    MESSAGE(std::string(model ? "model" : "classical") << ": " << calls.load() << " calls from 8 threads; " << far.load()
+                                            << " joints > 10 cm off, " << bad_velocity.load() << " bad velocities");
+    CHECK(calls.load() > 500);
+    CHECK(failures.load() == 0);
+    CHECK(far.load() == 0);
+    CHECK(bad_velocity.load() == 0);
+    app.shutdown();
+  }
+}

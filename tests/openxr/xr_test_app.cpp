@@ -12,18 +12,23 @@
 namespace hs::xrtest {
 
 TrackFiles make_tracks(const std::string& name, double duration_s, double jitter_sd_m, bool with_gap) {
-  TrackFiles f;
-  f.dir = hs::test::temp_dir("openxr_" + name);
   SynthMotionParams p;
   p.duration_s = duration_s;
   p.rate_hz = 90.0;
-  f.clean = synth_track(p, 7);
+  Track clean = synth_track(p, 7);
   if (with_gap) {
     // The right hand leaves the view for a second in the middle.
-    for (auto& row : f.clean.rows)
+    for (auto& row : clean.rows)
       if (row.hand == Hand::Right && row.t > 0.4 * duration_s && row.t < 0.4 * duration_s + 1.0)
         row.pos = untracked_pose();
   }
+  return make_tracks_from(name, std::move(clean), jitter_sd_m);
+}
+
+TrackFiles make_tracks_from(const std::string& name, Track clean, double jitter_sd_m) {
+  TrackFiles f;
+  f.dir = hs::test::temp_dir("openxr_" + name);
+  f.clean = std::move(clean);
   CorruptionConfig c = corruption_preset("tracker");
   c.tracker.jitter_sd_m = jitter_sd_m;
   c.tracker.hand_drop_rate_hz = 0.0;  // dropouts are tested separately (with_gap)
@@ -53,7 +58,9 @@ void reset_env(const TrackFiles& files) {
                         "HANDSTEADY_METHOD", "HANDSTEADY_MODEL", "HANDSTEADY_HORIZON_MS", "HANDSTEADY_STGAE_PHASES", "HANDSTEADY_LOG",
                         "HANDSTEADY_RECORD", "HANDSTEADY_ISA", "HANDSTEADY_SHIM_CORRUPT", "HANDSTEADY_SHIM_CLOCK",
                         "HANDSTEADY_SHIM_LATENCY_MS", "HANDSTEADY_SHIM_FUTURE", "HANDSTEADY_SHIM_HEAD_MOTION",
-                        "HANDSTEADY_SHIM_FAULTS"})
+                        "HANDSTEADY_SHIM_FAULTS", "HANDSTEADY_WORKER", "HANDSTEADY_SMOOTHING",
+                        "HANDSTEADY_LEFT_SMOOTHING", "HANDSTEADY_RIGHT_SMOOTHING", "HANDSTEADY_LEFT_HORIZON_MS",
+                        "HANDSTEADY_RIGHT_HORIZON_MS", "HANDSTEADY_MAX_HORIZON_MS"})
     unset_env(v);
   // Keep system implicit layers out: the tests choose their layers.
   set_env("XDG_DATA_HOME", (files.dir / "xdg-empty").string());
@@ -62,7 +69,8 @@ void reset_env(const TrackFiles& files) {
   set_env("HANDSTEADY_SHIM_TRACK", files.noisy_csv.string());
   set_env("HANDSTEADY_SHIM_CLOCK", "sim:11.111111");
   // The layer-mechanics tests measure the classical engine; without this the layer would
-  // pick the shipped model from the source tree. test_openxr_stgae covers that default.
+  // pick the shipped model (through the build tree's link to models/). test_openxr_stgae
+  // covers that default.
   set_env("HANDSTEADY_METHOD", "oneeuro");
 }
 
@@ -199,6 +207,24 @@ Joints App::locate(XrHandEXT hand, XrSpace base, XrTime time, bool velocities, u
   info.baseSpace = base;
   info.time = time;
   j.result = locate_joints(trackers[hand - 1], &info, &out);
+  j.active = out.isActive;
+  return j;
+}
+
+Joints App::locate_raw(XrHandEXT hand, XrSpace base, XrTime time) const {
+  PFN_xrVoidFunction fn = nullptr;
+  REQUIRE(xrGetInstanceProcAddr(instance, "xrLocateRawHandJointsNOVENDOR", &fn) == XR_SUCCESS);
+  const auto raw = reinterpret_cast<PFN_xrLocateHandJointsEXT>(fn);
+  Joints j;
+  XrHandJointLocationsEXT out{};
+  out.type = XR_TYPE_HAND_JOINT_LOCATIONS_EXT;
+  out.jointCount = XR_HAND_JOINT_COUNT_EXT;
+  out.jointLocations = j.loc.data();
+  XrHandJointsLocateInfoEXT info{};
+  info.type = XR_TYPE_HAND_JOINTS_LOCATE_INFO_EXT;
+  info.baseSpace = base;
+  info.time = time;
+  j.result = raw(trackers[hand - 1], &info, &out);
   j.active = out.isActive;
   return j;
 }

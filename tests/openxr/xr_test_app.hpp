@@ -29,6 +29,8 @@ struct TrackFiles {
 // with its jitter raised to jitter_sd_m (so that there is noise worth removing).
 TrackFiles make_tracks(const std::string& name, double duration_s, double jitter_sd_m = 0.003,
                        bool with_gap = false);
+// The same from a given clean track (90 Hz rows): noisy = tracker preset at jitter_sd_m.
+TrackFiles make_tracks_from(const std::string& name, Track clean, double jitter_sd_m = 0.003);
 
 // Clears every variable the loader, the layer and the runtime read, then points the
 // loader at the replay runtime replaying `noisy_csv` (sim clock at 90 Hz).
@@ -62,6 +64,9 @@ class App {
   // xrWaitFrame/xrBeginFrame/xrEndFrame; returns the predicted display time.
   XrTime frame();
   Joints locate(XrHandEXT hand, XrSpace base, XrTime time, bool velocities = false, uint32_t joint_count = 26) const;
+  // The runtime's own answer through the layer's raw side channel (the App must have been
+  // created with XR_NOVENDOR_handsteady_raw_joints).
+  Joints locate_raw(XrHandEXT hand, XrSpace base, XrTime time) const;
   // Pose of `space` in `base` at time (asserts validity).
   XrPosef space_pose(XrSpace space, XrSpace base, XrTime time) const;
   // Ends the session cleanly (STOPPING -> IDLE -> EXITING) and destroys trackers explicitly

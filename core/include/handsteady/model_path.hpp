@@ -2,7 +2,8 @@
 // Where the shipped Multi-STGAE model is found when no model file is given.
 // Order: $HANDSTEADY_MODEL (when set, it is the only candidate: a user who names a file
 // means that file); else <anchor>/<relative>/handsteady_xr26_causal.hsm for each installed
-// location; else the source tree's models/ (HS_SOURCE_MODELS_DIR, set at build time).
+// location. No build-time path is compiled in: build-tree binaries find the source tree's
+// models/ through a link at the installed relative place (models/CMakeLists.txt).
 #include <filesystem>
 #include <string>
 #include <string_view>
@@ -21,7 +22,7 @@ struct ModelLookup {
   std::string describe_tried() const;
 };
 
-// Candidates: env, then each installed_dirs[i]/kDefaultModelFile, then the source tree.
+// Candidates: env, else each installed_dirs[i]/kDefaultModelFile.
 ModelLookup lookup_default_model(const std::vector<std::filesystem::path>& installed_dirs);
 
 // Folder of the running executable (/proc/self/exe), empty when unknown.

@@ -1,0 +1,168 @@
+#include "joint_rewrite.hpp"
+
+#include "handsteady/skeleton.hpp"
+#include "joint_gate.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace hs::layer {
+namespace {
+constexpr XrSpaceLocationFlags kTracked = XR_SPACE_LOCATION_POSITION_VALID_BIT | XR_SPACE_LOCATION_POSITION_TRACKED_BIT;
+constexpr double kMaxSpeed = 50.0;         // m/s: no joint of a hand moves faster
+constexpr double kMaxAngularSpeed = 1000.0;  // rad/s: beyond noisy joint frames (tracker jitter over 2 cm bones)
+
+// Component-wise median of the usable rows of `p` (NaN when none).
+Eigen::Vector3d median_centre(const Pose& p) {
+  Pose copy = p;
+  GateLimits loose;
+  loose.min_norm_m = 0.0;
+  loose.max_norm_m = 1e3;
+  loose.max_from_centre_m = 1e3;
+  loose.min_joints = 1;
+  return gate_joints(copy, loose).centre;
+}
+}  // namespace
+
+JointMask garbage_joints(const XrHandJointLocationEXT* joints) noexcept {
+  // The base space may be anywhere (VIEW, STAGE, an app's space): only the exact origin,
+  // denormals and absurd magnitudes are judged by position, the rest by the hand's shape.
+  Pose p;
+  for (int j = 0; j < kJointCount; ++j) p.row(j) = xr::to_eigen(joints[j].pose.position).transpose();
+  GateLimits limits;
+  limits.min_norm_m = 1e-9;
+  limits.max_norm_m = 1e3;
+  limits.min_joints = 1;
+  gate_joints(p, limits);
+  JointMask bad{};
+  for (int j = 0; j < kJointCount; ++j) bad[j] = !joint_tracked(p, j);
+  return bad;
+}
+
+int repair_garbage(const JointMask& garbage, XrHandJointLocationEXT* joints, XrHandJointVelocityEXT* velocities) noexcept {
+  const auto& parent = xr_hand_skeleton().parent;
+  int changed = 0;
+  for (int j = 0; j < kJointCount; ++j) {
+    XrHandJointLocationEXT& loc = joints[j];
+    if (garbage[j]) {
+      int k = parent[j];
+      while (k >= 0 && garbage[k]) k = parent[k];
+      if (k < 0)
+        for (k = 0; k < kJointCount && garbage[k]; ++k) {
+        }
+      if (k < kJointCount && k >= 0) loc.pose.position = joints[k].pose.position;
+      else loc.pose.position = {0.0f, 0.0f, 0.0f};  // no plausible joint at all: a defined value
+      loc.locationFlags &= ~static_cast<XrSpaceLocationFlags>(XR_SPACE_LOCATION_POSITION_TRACKED_BIT);
+      ++changed;
+    }
+    if (!xr::usable(loc.pose.orientation)) {
+      const int k = parent[j];
+      loc.pose.orientation = k >= 0 && k < j && xr::usable(joints[k].pose.orientation) ? joints[k].pose.orientation
+                                                                                       : XrQuaternionf{0, 0, 0, 1};
+      loc.locationFlags &= ~static_cast<XrSpaceLocationFlags>(XR_SPACE_LOCATION_ORIENTATION_TRACKED_BIT);
+      ++changed;
+    }
+    if (!velocities) continue;
+    XrHandJointVelocityEXT& v = velocities[j];
+    if ((v.velocityFlags & XR_SPACE_VELOCITY_LINEAR_VALID_BIT) &&
+        (!xr::finite(v.linearVelocity) || !(xr::to_eigen(v.linearVelocity).norm() < kMaxSpeed))) {
+      v.velocityFlags &= ~static_cast<XrSpaceVelocityFlags>(XR_SPACE_VELOCITY_LINEAR_VALID_BIT);
+      ++changed;
+    }
+    if ((v.velocityFlags & XR_SPACE_VELOCITY_ANGULAR_VALID_BIT) &&
+        (!xr::finite(v.angularVelocity) || !(xr::to_eigen(v.angularVelocity).norm() < kMaxAngularSpeed))) {
+      v.velocityFlags &= ~static_cast<XrSpaceVelocityFlags>(XR_SPACE_VELOCITY_ANGULAR_VALID_BIT);
+      ++changed;
+    }
+  }
+  return changed;
+}
+
+RewriteStats rewrite_joints(const Answer& answer, double smoothing, const xr::Rigid& base_from_world,
+                            const BaseMotion& motion, JointMask& garbage, double max_offset_m,
+                            XrHandJointLocationEXT* joints, XrHandJointVelocityEXT* velocities) noexcept {
+  const JointMask bad = garbage;
+  constexpr XrSpaceLocationFlags tracked = kTracked;
+  const double w = std::clamp(answer.weight * smoothing, 0.0, 1.0);
+  RewriteStats stats;
+  {
+    // The estimate must be about the hand the runtime shows.
+    Pose est_base, raw_base;
+    for (int j = 0; j < kJointCount; ++j) {
+      est_base.row(j) = (base_from_world * Eigen::Vector3d(answer.pose.row(j).transpose())).transpose();
+      raw_base.row(j) = bad[j] || (joints[j].locationFlags & tracked) != tracked
+                            ? Eigen::RowVector3d::Constant(std::nan(""))
+                            : Eigen::RowVector3d(xr::to_eigen(joints[j].pose.position).transpose());
+    }
+    const Eigen::Vector3d a = median_centre(est_base), b = median_centre(raw_base);
+    if (a.allFinite() && b.allFinite() && (a - b).norm() > max_offset_m) {
+      stats.diverged = true;
+      return stats;
+    }
+  }
+  std::array<Eigen::Vector3d, kJointCount> raw, fresh;
+  std::array<bool, kJointCount> replaced{};
+  for (int j = 0; j < kJointCount; ++j) {
+    const XrHandJointLocationEXT& loc = joints[j];
+    raw[j] = xr::to_eigen(loc.pose.position);
+    fresh[j] = raw[j];
+    const Eigen::Vector3d e = answer.pose.row(j).transpose();
+    if ((loc.locationFlags & tracked) != tracked || !e.allFinite()) continue;
+    const Eigen::Vector3d target = base_from_world * e;
+    if (!target.allFinite()) continue;
+    Eigen::Vector3d offset = target - raw[j];
+    if (answer.weight < 1.0 && offset.norm() > max_offset_m / 3.0) offset *= max_offset_m / 3.0 / offset.norm();
+    fresh[j] = bad[j] ? target : Eigen::Vector3d(raw[j] + w * offset);
+    replaced[j] = true;
+    ++stats.replaced;
+    if (bad[j]) ++stats.repaired;
+    garbage[j] = false;
+  }
+  // Orientations follow their bones: the smallest rotation taking the runtime's bone
+  // direction onto the new one, applied to the runtime's orientation (keeps its twist).
+  std::array<XrQuaternionf, kJointCount> orient{};
+  for (int j = 0; j < kJointCount; ++j) {
+    orient[j] = joints[j].pose.orientation;
+    const auto [a, b] = xr::kJointBone[j];
+    if ((!replaced[a] && !replaced[b]) || bad[a] || bad[b]) continue;
+    const Eigen::Vector3d d_raw = raw[b] - raw[a], d_new = fresh[b] - fresh[a];
+    if (!d_raw.allFinite() || !d_new.allFinite() || d_raw.norm() < 1e-6 || d_new.norm() < 1e-6 ||
+        !xr::usable(orient[j]))
+      continue;
+    const Eigen::Quaterniond q = Eigen::Quaterniond::FromTwoVectors(d_raw, d_new) * xr::to_eigen(orient[j]).normalized();
+    orient[j] = xr::to_xr(q.normalized());
+  }
+  for (int j = 0; j < kJointCount; ++j) {
+    joints[j].pose.position = xr::to_xr(fresh[j]);
+    joints[j].pose.orientation = orient[j];
+  }
+  if (!velocities) return stats;
+  // Linear velocities relative to the base: the estimate's world velocity rotated into
+  // the base, plus the base's own motion. Anything non-finite or faster than a hand
+  // leaves the runtime's value (repair_garbage judges that).
+  const Eigen::Matrix3d R = base_from_world.linear();
+  for (int j = 0; j < kJointCount; ++j) {
+    XrHandJointVelocityEXT& v = velocities[j];
+    const Eigen::Vector3d ev = answer.velocity.row(j).transpose();
+    if (!replaced[j] || !(v.velocityFlags & XR_SPACE_VELOCITY_LINEAR_VALID_BIT) || !ev.allFinite()) continue;
+    Eigen::Vector3d frame = Eigen::Vector3d::Zero();
+    if (motion.valid) {
+      frame = motion.linear + motion.angular.cross(fresh[j] - base_from_world.translation());
+    } else if (motion.world_velocities) {
+      const XrHandJointVelocityEXT& wv = motion.world_velocities[j];
+      if ((wv.velocityFlags & XR_SPACE_VELOCITY_LINEAR_VALID_BIT) && xr::finite(wv.linearVelocity) &&
+          xr::finite(v.linearVelocity)) {
+        const Eigen::Vector3d rel = xr::to_eigen(v.linearVelocity) - R * xr::to_eigen(wv.linearVelocity);
+        if (rel.norm() < 5.0) frame = rel;  // more is not a head or a base moving: garbage
+      }
+    }
+    const Eigen::Vector3d target = R * ev + frame;
+    const Eigen::Vector3d old = xr::to_eigen(v.linearVelocity);
+    const bool old_ok = old.allFinite() && old.norm() < kMaxSpeed;
+    const Eigen::Vector3d out = old_ok && !bad[j] ? Eigen::Vector3d(old + w * (target - old)) : target;
+    if (out.allFinite() && out.norm() < kMaxSpeed) v.linearVelocity = xr::to_xr(out);
+  }
+  return stats;
+}
+
+}  // namespace hs::layer

@@ -1,0 +1,51 @@
+#pragma once
+// The layer's answer to the app, as a pure function: the runtime's joints in the app's
+// base space are moved to the engine's estimate (world space, converted with
+// base_from_world), weighted by answer.weight * smoothing; orientations follow their
+// bones; linear velocities become the estimate's. Joints the runtime does not report
+// tracked keep the runtime's data; a tracked joint whose runtime position is garbage
+// (non-finite, absurd) takes the estimate whole. No allocation, no runtime calls.
+#include "handsteady_xr/xr_math.hpp"
+#include "tracker_filter.hpp"
+
+#include <openxr/openxr.h>
+
+namespace hs::layer {
+
+// Motion of the layer's world space seen from the base space (from XrSpaceVelocity), or
+// the runtime's own joint velocities in both spaces at the same time (their difference
+// is the base motion); with neither, the base is taken as still relative to the world.
+struct BaseMotion {
+  bool valid = false;
+  Eigen::Vector3d linear = Eigen::Vector3d::Zero();   // m/s of the world origin, base frame
+  Eigen::Vector3d angular = Eigen::Vector3d::Zero();  // rad/s, base frame
+  const XrHandJointVelocityEXT* world_velocities = nullptr;  // runtime's, world space, same time
+};
+
+struct RewriteStats {
+  int replaced = 0;       // joints moved to the estimate
+  int repaired = 0;       // of which the runtime's position was garbage
+  bool diverged = false;  // the estimate is not where the runtime's hand is: nothing replaced
+};
+
+// Joints of the runtime's answer whose position no hand can have (non-finite, at the
+// exact origin or denormal, beyond 1 km, far from the rest of the hand), flagged tracked.
+using JointMask = std::array<bool, kJointCount>;
+JointMask garbage_joints(const XrHandJointLocationEXT* joints) noexcept;
+
+// max_offset_m: an estimate whose hand centre is farther than this from the runtime's
+// (a hand re-acquired elsewhere that the engine has not seen yet) replaces nothing.
+// While the engine blends in after a (re)start (answer.weight < 1) its offset from the
+// runtime's joint is also capped at max_offset_m / 3 per joint: a cold engine's
+// prediction is not trusted. Garbage joints the estimate replaces are cleared from `garbage`.
+RewriteStats rewrite_joints(const Answer& answer, double smoothing, const xr::Rigid& base_from_world,
+                            const BaseMotion& motion, JointMask& garbage, double max_offset_m,
+                            XrHandJointLocationEXT* joints, XrHandJointVelocityEXT* velocities) noexcept;
+
+// What the app gets is never garbage, even where the layer passes the runtime through:
+// a garbage position becomes its nearest plausible ancestor's (valid, no longer tracked),
+// an unusable orientation its parent's (likewise), a non-finite or impossible velocity
+// loses its valid bit. Returns the number of joints changed.
+int repair_garbage(const JointMask& garbage, XrHandJointLocationEXT* joints, XrHandJointVelocityEXT* velocities) noexcept;
+
+}  // namespace hs::layer

@@ -1,0 +1,431 @@
+// The layer on runtimes of every time semantics and under faults, through the real
+// loader: app -> loader -> handsteady -> replay runtime (its HANDSTEADY_SHIM_FUTURE and
+// HANDSTEADY_SHIM_FAULTS modes). Errors are against the clean track at the asked time;
+// "raw" is the runtime's own answer at that time (the layer's raw side channel).
+#include "handsteady/track_ops.hpp"
+#include "handsteady/synth.hpp"
+#include "handsteady_xr/raw_joints_ext.h"
+#include "handsteady_xr/xr_math.hpp"
+#include "test_support.hpp"
+#include "xr_test_app.hpp"
+
+#include <doctest/doctest.h>
+
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <thread>
+
+using namespace hs;
+using namespace hs::xrtest;
+
+namespace {
+
+const std::vector<const char*> kRawExt = {XR_NOVENDOR_HANDSTEADY_RAW_JOINTS_EXTENSION_NAME};
+
+// Engines the tests run: the classical default of the mode, and the shipped model.
+void select_engine(const std::string& engine, const std::string& mode) {
+  set_env("HANDSTEADY_MODE", mode);
+  if (engine == "stgae") {
+    unset_env("HANDSTEADY_METHOD");  // the shipped model, the layer's default
+    set_env("HANDSTEADY_WORKER", "lockstep");  // simulated clock: deterministic hand-off
+  } else {
+    set_env("HANDSTEADY_METHOD", engine == "kalman" ? "kalman" : mode == "predict" ? "kalman" : "oneeuro");
+  }
+}
+
+double mean_error(const Joints& j, const Pose& truth) {
+  double sum = 0.0;
+  long n = 0;
+  accumulate_error(j, XrPosef{{0, 0, 0, 1}, {0, 0, 0}}, truth, sum, n);
+  return n ? sum / static_cast<double>(n) : 0.0;
+}
+
+struct Score {
+  double layer = 0.0, raw = 0.0;
+  long frames = 0;
+  double layer_mm() const { return frames ? layer / static_cast<double>(frames) * 1e3 : std::nan(""); }
+  double raw_mm() const { return frames ? raw / static_cast<double>(frames) * 1e3 : std::nan(""); }
+};
+
+// The track time of the runtime's answer `r` (right hand, LOCAL, the exact policy): the
+// time whose noisy pose it equals. For the real clock, whose epoch the app cannot know.
+double answer_track_time(const TrackFiles& f, const Joints& r) {
+  const HandSeries& s = f.noisy_series[1];
+  double best = s.t.front(), best_d = 1e9;
+  for (double t = s.t.front(); t <= s.t.back(); t += 1e-4) {
+    const Pose p = interpolate_pose(s, t);
+    double d = 0.0;
+    for (int k = 0; k < kJointCount; ++k)
+      if (joint_tracked(p, k)) d += (xr::to_eigen(r.loc[k].pose.position) - p.row(k).transpose()).norm();
+    if (d < best_d) {
+      best_d = d;
+      best = t;
+    }
+  }
+  return best;
+}
+
+// Frames of both hands in LOCAL at the display time: the layer's answer and the runtime's
+// against the truth, from frame `skip` on. real_clock: track times found from the
+// runtime's answers (answer_track_time) instead of the simulated clock's epoch.
+Score score(App& app, const TrackFiles& f, int frames, int skip = 30, bool real_clock = false) {
+  Score s;
+  double offset_s = 0.0;  // track time - XrTime seconds (real clock)
+  for (int i = 0; i < frames; ++i) {
+    const XrTime T = app.frame();
+    if (real_clock && i == 0)
+      offset_s = answer_track_time(f, app.locate_raw(XR_HAND_RIGHT_EXT, app.local, T)) - static_cast<double>(T) * 1e-9;
+    for (XrHandEXT hand : {XR_HAND_LEFT_EXT, XR_HAND_RIGHT_EXT}) {
+      const Joints j = app.locate(hand, app.local, T);
+      const Joints r = app.locate_raw(hand, app.local, T);
+      REQUIRE(j.result == XR_SUCCESS);
+      if (i < skip || !j.active || !r.active) continue;
+      const double tt = real_clock ? static_cast<double>(T) * 1e-9 + offset_s : track_time(f, T);
+      const Pose truth = interpolate_pose(f.clean_series[hand - 1], tt);
+      s.layer += mean_error(j, truth);
+      s.raw += mean_error(r, truth);
+      ++s.frames;
+    }
+  }
+  return s;
+}
+
+// A right hand: one synthetic frame held still for `seconds` (both hands: the left mirrored).
+Track still_hands(double seconds) {
+  SynthMotionParams p;
+  p.duration_s = 0.1;
+  p.rate_hz = 90.0;
+  const Track one = synth_track(p, 3);
+  Track t;
+  const int n = static_cast<int>(seconds * 90.0);
+  for (int i = 0; i < n; ++i)
+    for (const auto& row : one.rows)
+      if (row.t == one.rows.front().t) {
+        TrackRow r = row;
+        r.t = i / 90.0;
+        t.rows.push_back(r);
+      }
+  return t;
+}
+
+double max_deviation(const Joints& a, const Joints& b) {
+  double m = 0.0;
+  for (int k = 0; k < kJointCount; ++k)
+    m = std::max(m, (xr::to_eigen(a.loc[k].pose.position) - xr::to_eigen(b.loc[k].pose.position)).norm());
+  return m;
+}
+
+}  // namespace
+
+TEST_CASE("every time semantics (history, latest pose, extrapolation): denoise <= raw, predict < raw") {
+  // History: past times from its history, future ones held at its newest pose (no runtime
+  // prediction); latest: its newest pose whatever the time (Monado's remote driver);
+  // extrapolate: 30 Hz captures 30 ms late, extrapolated to the asked time (Quest-style).
+  // The shipped model (the default) on all three; Kalman where it wins (on an extrapolating
+  // runtime its prediction stacks on the runtime's: reported, not asserted).
+  const TrackFiles f = make_tracks("semantics", 5.0);
+  for (const std::string engine : {"stgae", "kalman"})
+    for (const std::string future : {"hold", "latest", "extrapolate:30:30"})
+      for (const std::string mode : {"denoise", "predict"}) {
+        CAPTURE(engine);
+        CAPTURE(future);
+        CAPTURE(mode);
+        reset_env(f);
+        set_env("HANDSTEADY_SHIM_FUTURE", future);
+        // Display 5 ms after the runtime's now (a null compositor): a latest-pose runtime's
+        // sample is then much newer than the 20 ms the layer would otherwise date it back.
+        set_env("HANDSTEADY_SHIM_LATENCY_MS", "5");
+        select_engine(engine, mode);
+        enable_layers({kLayer});
+        App app(true, kRawExt);
+        const Score s = score(app, f, 400);
+        MESSAGE(engine << " " << future << " " << mode << ": layer " << s.layer_mm() << " mm, runtime " << s.raw_mm()
+                       << " mm");
+        REQUIRE(s.frames > 600);
+        const bool asserted = engine == "stgae" || future != "extrapolate:30:30" || mode == "denoise";
+        if (asserted && mode == "denoise") CHECK(s.layer_mm() <= s.raw_mm());
+        if (asserted && mode == "predict") CHECK(s.layer_mm() < 0.95 * s.raw_mm());
+        app.shutdown();
+      }
+}
+
+TEST_CASE("One Euro denoises a runtime answering the asked time; on a latest-pose runtime its lag adds to the staleness") {
+  const TrackFiles f = make_tracks("semantics_oneeuro", 5.0);
+  for (const std::string future : {"hold", "latest"}) {
+    reset_env(f);
+    set_env("HANDSTEADY_SHIM_FUTURE", future);
+    set_env("HANDSTEADY_SHIM_LATENCY_MS", "5");
+    select_engine("classical", "denoise");
+    enable_layers({kLayer});
+    App app(true, kRawExt);
+    const Score s = score(app, f, 400);
+    MESSAGE("oneeuro " << future << " denoise: layer " << s.layer_mm() << " mm, runtime " << s.raw_mm() << " mm");
+    if (future == "hold") CHECK(s.layer_mm() <= s.raw_mm());
+    else CHECK(s.layer_mm() < 1.2 * s.raw_mm());  // a known loss, reported in README
+    app.shutdown();
+  }
+}
+
+TEST_CASE("start: the first answers are the runtime's, a still hand has no transient") {
+  const TrackFiles f = make_tracks_from("still", still_hands(3.0), 0.0005);
+  for (const std::string engine : {"classical", "stgae"})
+    for (const std::string mode : {"denoise", "predict"}) {
+      CAPTURE(engine);
+      CAPTURE(mode);
+      reset_env(f);
+      select_engine(engine, mode);
+      enable_layers({kLayer});
+      App app(true, kRawExt);
+      double first = 0.0, max_step = 0.0, max_raw_step = 0.0;
+      std::array<Joints, 2> prev, prev_raw;
+      for (int i = 0; i < 150; ++i) {
+        const XrTime T = app.frame();
+        for (XrHandEXT hand : {XR_HAND_LEFT_EXT, XR_HAND_RIGHT_EXT}) {
+          const int h = hand - 1;
+          const Joints j = app.locate(hand, app.local, T), r = app.locate_raw(hand, app.local, T);
+          REQUIRE(j.active);
+          if (i < 2) first = std::max(first, max_deviation(j, r));
+          if (i > 0) {
+            max_step = std::max(max_step, max_deviation(j, prev[h]));
+            max_raw_step = std::max(max_raw_step, max_deviation(r, prev_raw[h]));
+          }
+          prev[h] = j;
+          prev_raw[h] = r;
+        }
+      }
+      MESSAGE(engine << " " << mode << ": first answers " << first * 1e3 << " mm from the runtime's; largest step "
+                     << max_step * 1e3 << " mm (runtime " << max_raw_step * 1e3 << " mm)");
+      CHECK(first < 0.001);
+      CHECK(max_step <= max_raw_step);  // never a jump larger than the runtime's own jitter
+      app.shutdown();
+    }
+}
+
+TEST_CASE("re-acquisition: a hand back 30 cm away, or jumping there, is answered where it is") {
+  // The right hand: lost for 0.3 s at 1.5 s, back 30 cm to the side; at 3 s it jumps
+  // another 30 cm without a gap (no hand moves 30 cm in 11 ms).
+  SynthMotionParams p;
+  p.duration_s = 4.5;
+  p.rate_hz = 90.0;
+  Track clean = synth_track(p, 7);
+  for (auto& row : clean.rows) {
+    if (row.hand != Hand::Right) continue;
+    if (row.t >= 1.5 && row.t < 1.8) row.pos = untracked_pose();
+    if (row.t >= 1.8) row.pos.col(0).array() += 0.3;
+    if (row.t >= 3.0) row.pos.col(0).array() += 0.3;
+  }
+  const TrackFiles f = make_tracks_from("reacquire", std::move(clean));
+  for (const std::string engine : {"classical", "stgae"})
+    for (const std::string mode : {"denoise", "predict"}) {
+      CAPTURE(engine);
+      CAPTURE(mode);
+      reset_env(f);
+      select_engine(engine, mode);
+      enable_layers({kLayer});
+      App app(true, kRawExt);
+      bool was_active = true;
+      double prev_x = std::nan("");
+      int since_event = 1000;
+      double worst_first = 0.0, worst_after = 0.0;
+      for (int i = 0; i < 400; ++i) {
+        const XrTime T = app.frame();
+        const Joints j = app.locate(XR_HAND_RIGHT_EXT, app.local, T), r = app.locate_raw(XR_HAND_RIGHT_EXT, app.local, T);
+        if (!r.active) {
+          was_active = false;
+          continue;
+        }
+        const double x = r.loc[1].pose.position.x;
+        if (!was_active || (std::isfinite(prev_x) && std::fabs(x - prev_x) > 0.2)) since_event = 0;
+        was_active = true;
+        prev_x = x;
+        if (since_event == 0) worst_first = std::max(worst_first, max_deviation(j, r));
+        else if (since_event < 15) worst_after = std::max(worst_after, max_deviation(j, r));
+        ++since_event;
+      }
+      MESSAGE(engine << " " << mode << ": first answer after re-acquisition/jump " << worst_first * 1e3
+                     << " mm from the runtime's, next 15 frames at most " << worst_after * 1e3 << " mm");
+      CHECK(worst_first < 0.001);
+      CHECK(worst_after < 0.03);  // not 10-29 cm off
+      app.shutdown();
+    }
+}
+
+TEST_CASE("garbage flagged valid (origin, denormal, NaN, 1e30 joints, xrLocateSpace poses, velocities) is gated") {
+  const TrackFiles f = make_tracks("garbage", 4.0);
+  for (const std::string engine : {"classical", "stgae"})
+    for (const std::string mode : {"denoise", "predict"}) {
+      CAPTURE(engine);
+      CAPTURE(mode);
+      reset_env(f);
+      set_env("HANDSTEADY_SHIM_FAULTS", "origin:0.02,nan:0.01,huge:0.01,space:0.05,velocity:0.05");
+      set_env("HANDSTEADY_SHIM_HEAD_MOTION", "1");
+      select_engine(engine, mode);
+      enable_layers({kLayer});
+      App app(true, kRawExt);
+      double worst = 0.0, worst_speed = 0.0, sum = 0.0;  // LOCAL errors
+      long n = 0, insane = 0;
+      for (int i = 0; i < 360; ++i) {
+        const XrTime T = app.frame();
+        for (XrHandEXT hand : {XR_HAND_LEFT_EXT, XR_HAND_RIGHT_EXT}) {
+          for (XrSpace base : {app.local, app.view}) {
+            const Joints j = app.locate(hand, base, T, true);
+            REQUIRE(j.result == XR_SUCCESS);
+            if (i < 30 || !j.active) continue;
+            // The faults hit the app's own xrLocateSpace too: errors are measured in LOCAL;
+            // in VIEW every position must be finite and within reach of the head.
+            const Pose truth = interpolate_pose(f.clean_series[hand - 1], track_time(f, T));
+            for (int k = 0; k < kJointCount; ++k) {
+              const Eigen::Vector3d p = xr::to_eigen(j.loc[k].pose.position);
+              if (base == app.view) {
+                if (!p.allFinite() || p.norm() > 2.0) ++insane;
+              } else {
+                const double e = p.allFinite() ? (p - truth.row(k).transpose()).norm() : 1e9;
+                if (e > 0.1) ++insane;
+                else worst = std::max(worst, e);
+                sum += std::min(e, 1.0);
+                ++n;
+              }
+              const auto& v = j.vel[k];
+              if (v.velocityFlags & XR_SPACE_VELOCITY_LINEAR_VALID_BIT) {
+                const double speed = xr::finite(v.linearVelocity) ? xr::to_eigen(v.linearVelocity).norm() : 1e9;
+                worst_speed = std::max(worst_speed, speed);
+              }
+            }
+          }
+        }
+      }
+      MESSAGE(engine << " " << mode << ": " << insane << " of " << n << " joints more than 10 cm off; mean error "
+                     << sum / static_cast<double>(n) * 1e3 << " mm; fastest velocity answered " << worst_speed << " m/s");
+      // Garbage the layer has no estimate for becomes a neighbour's position (not tracked):
+      // a few cm off, never metres.
+      CHECK(insane == 0);
+      CHECK(sum / static_cast<double>(n) < 0.006);
+      CHECK(worst_speed < 10.0);  // no garbage velocity leaks (the hand moves < 2 m/s)
+      app.shutdown();
+    }
+}
+
+TEST_CASE("time chaos (far future, zero, INT64_MAX, backwards, repeats) leaves the filter working") {
+  const TrackFiles f = make_tracks("chaos", 4.0);
+  for (const std::string engine : {"classical", "stgae"})
+    for (const std::string mode : {"denoise", "predict"}) {
+      CAPTURE(engine);
+      CAPTURE(mode);
+      reset_env(f);
+      // A runtime that answers any future time (with its newest pose), as real ones do:
+      // the far-future query then returns a tracked hand.
+      set_env("HANDSTEADY_SHIM_FUTURE", "hold");
+      select_engine(engine, mode);
+      enable_layers({kLayer});
+      App app(true, kRawExt);
+      Score before = score(app, f, 100);
+      for (XrTime odd : {XrTime{3'600'000'000'000}, XrTime{0}, std::numeric_limits<XrTime>::max(), XrTime{1},
+                         XrTime{-5}}) {
+        const XrTime T = app.frame();
+        for (XrHandEXT hand : {XR_HAND_LEFT_EXT, XR_HAND_RIGHT_EXT}) {
+          const XrTime t = odd == 3'600'000'000'000 ? T + odd : odd;
+          (void)app.locate(hand, app.local, t, true);  // any result; no crash, no hang
+          (void)app.locate(hand, app.local, T - 2'000'000'000);
+          (void)app.locate(hand, app.local, T);
+          (void)app.locate(hand, app.local, T);
+        }
+      }
+      const Score after = score(app, f, 200, 40);
+      long same = 0, total = 0;
+      for (int i = 0; i < 20; ++i) {
+        const XrTime T = app.frame();
+        const Joints j = app.locate(XR_HAND_RIGHT_EXT, app.local, T), r = app.locate_raw(XR_HAND_RIGHT_EXT, app.local, T);
+        if (max_deviation(j, r) < 1e-7) ++same;
+        ++total;
+      }
+      MESSAGE(engine << " " << mode << ": before the chaos " << before.layer_mm() << " mm (raw " << before.raw_mm()
+                     << "), after " << after.layer_mm() << " mm (raw " << after.raw_mm() << "); " << same << " of "
+                     << total << " answers unfiltered");
+      CHECK(after.frames > 200);
+      CHECK(after.layer_mm() < 1.1 * before.layer_mm() * after.raw_mm() / before.raw_mm());  // as good as before
+      CHECK(same == 0);
+      app.shutdown();
+    }
+}
+
+TEST_CASE("per-hand smoothing and horizon from the configuration file, changed while the app runs") {
+  const TrackFiles f = make_tracks("tuning", 6.0);
+  reset_env(f);
+  const auto config = f.dir / "config.json";
+  auto write = [&](const std::string& text) {
+    const auto tmp = f.dir / "config.json.tmp";
+    std::ofstream(tmp) << text;
+    std::filesystem::rename(tmp, config);  // atomic: the watcher never reads half a file
+  };
+  write(R"({"hands": {"left": {"smoothing": 0}}})");
+  set_env("HANDSTEADY_CONFIG", config.string());
+  set_env("HANDSTEADY_LOG", "info");
+  enable_layers({kLayer});
+  App app(true, kRawExt);
+  auto deviations = [&](int frames) {
+    std::array<double, 2> d{};
+    for (int i = 0; i < frames; ++i) {
+      const XrTime T = app.frame();
+      for (XrHandEXT hand : {XR_HAND_LEFT_EXT, XR_HAND_RIGHT_EXT}) {
+        const Joints j = app.locate(hand, app.local, T), r = app.locate_raw(hand, app.local, T);
+        if (i >= 30 && j.active && r.active) d[hand - 1] = std::max(d[hand - 1], max_deviation(j, r));
+      }
+    }
+    return d;
+  };
+  const auto first = deviations(90);
+  MESSAGE("left smoothing 0: left " << first[0] * 1e3 << " mm from the runtime's, right " << first[1] * 1e3 << " mm");
+  CHECK(first[0] < 1e-6);  // the runtime's joints
+  CHECK(first[1] > 1e-3);  // filtered
+  write(R"({"hands": {"left": {"smoothing": 1}, "right": {"smoothing": 0.0}}})");
+  // The watcher polls the file every 200 ms of real time.
+  std::this_thread::sleep_for(std::chrono::milliseconds(700));
+  const auto second = deviations(90);
+  MESSAGE("then right smoothing 0: left " << second[0] * 1e3 << " mm, right " << second[1] * 1e3 << " mm");
+  CHECK(second[0] > 1e-3);
+  CHECK(second[1] < 1e-6);
+  app.shutdown();
+}
+
+TEST_CASE("per-hand prediction horizon: against a runtime 40 ms stale, 40 ms beats 0 ms") {
+  const TrackFiles f = make_tracks("horizon", 4.0);
+  reset_env(f);
+  set_env("HANDSTEADY_SHIM_FUTURE", "hold");
+  set_env("HANDSTEADY_SHIM_LATENCY_MS", "40");
+  set_env("HANDSTEADY_MODE", "predict");
+  set_env("HANDSTEADY_METHOD", "kalman");
+  set_env("HANDSTEADY_LEFT_HORIZON_MS", "0");
+  set_env("HANDSTEADY_RIGHT_HORIZON_MS", "40");
+  enable_layers({kLayer});
+  App app(true, kRawExt);
+  std::array<double, 2> err{}, n{};
+  for (int i = 0; i < 300; ++i) {
+    const XrTime T = app.frame();
+    for (XrHandEXT hand : {XR_HAND_LEFT_EXT, XR_HAND_RIGHT_EXT}) {
+      const Joints j = app.locate(hand, app.local, T);
+      if (i < 30 || !j.active) continue;
+      err[hand - 1] += mean_error(j, interpolate_pose(f.clean_series[hand - 1], track_time(f, T)));
+      n[hand - 1] += 1.0;
+    }
+  }
+  MESSAGE("left (0 ms) " << err[0] / n[0] * 1e3 << " mm, right (40 ms) " << err[1] / n[1] * 1e3 << " mm");
+  CHECK(err[1] / n[1] < 0.7 * err[0] / n[0]);
+  app.shutdown();
+}
+
+TEST_CASE("the network on the layer's worker, in real time (90 Hz real clock): denoise closer than raw") {
+  const TrackFiles f = make_tracks("worker", 4.0);
+  reset_env(f);
+  set_env("HANDSTEADY_SHIM_CLOCK", "real:11.111111");
+  select_engine("stgae", "denoise");
+  set_env("HANDSTEADY_WORKER", "auto");  // the default: a worker thread per tracker
+  enable_layers({kLayer});
+  App app(true, kRawExt);
+  const Score s = score(app, f, 270, 30, true);
+  MESSAGE("worker, real clock: layer " << s.layer_mm() << " mm, runtime " << s.raw_mm() << " mm");
+  CHECK(s.frames > 400);
+  CHECK(s.layer_mm() < 0.85 * s.raw_mm());
+  app.shutdown();
+}
