@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Runs all tests: installs missing Debian packages, configures and builds with
 # warnings as errors, runs CTest; then the same in an AddressSanitizer +
-# UndefinedBehaviorSanitizer build, the concurrency tests under ThreadSanitizer, and a
-# libFuzzer run on the model loader.
+# UndefinedBehaviorSanitizer build, the concurrency tests under ThreadSanitizer, and
+# libFuzzer runs on the file parsers.
 # Usage: scripts/test.sh [--quick]   (--quick: the normal build only)
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -26,17 +26,28 @@ if [ "${1:-}" != "--quick" ]; then
   # Concurrency tests (CTest label "tsan"; their targets in tests/tsan_targets.txt).
   HS_TARGETS="$(grep -v '^#' tests/tsan_targets.txt)" HS_CTEST_ARGS="-L tsan" \
     run build/tsan -DCMAKE_BUILD_TYPE=Debug -DHS_SANITIZE=thread -DHS_BUILD_TRAINING=OFF
-  # libFuzzer on the .hsm model loader (clang, ASan+UBSan): fixed seed, HS_FUZZ_SECONDS (60).
+  # libFuzzer (clang, ASan+UBSan) on every parser of user files: the .hsm model loader,
+  # the track CSV reader, the FPHA/MRTK/BVH importers, the layer's JSON configuration
+  # (docs/FUZZING.md). Fixed seed; each from a scratch copy of its seed corpus
+  # (tests/fuzz/corpus/<name>), HS_FUZZ_SECONDS each (default 60 s for the model loader,
+  # 30 s for the others: 3.5 min in all).
   cmake -S . -B build/fuzz -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=RelWithDebInfo -DHS_WERROR=ON \
     -DHS_FUZZ=ON -DHS_SANITIZE=address,undefined -DHS_BUILD_TRAINING=OFF -DHS_BUILD_DEMO=OFF >/dev/null
-  cmake --build build/fuzz -j"$jobs" --target fuzz_hsm_loader
-  mkdir -p build/fuzz/corpus
-  if ! build/fuzz/tests/fuzz/fuzz_hsm_loader -seed=1 -max_total_time="${HS_FUZZ_SECONDS:-60}" -print_final_stats=1 \
-      -artifact_prefix=build/fuzz/ build/fuzz/corpus > build/fuzz/fuzz.log 2>&1; then
-    tail -n 80 build/fuzz/fuzz.log >&2
-    echo "fuzz_hsm_loader failed: the input is in build/fuzz/ (crash-*, leak-*, timeout-*)" >&2
-    exit 1
-  fi
-  tail -n 8 build/fuzz/fuzz.log
+  fuzzers=(hsm_loader track_csv fpha mrtk bvh layer_config)
+  cmake --build build/fuzz -j"$jobs" --target "${fuzzers[@]/#/fuzz_}"
+  for name in "${fuzzers[@]}"; do
+    corpus=build/fuzz/corpus/$name log=build/fuzz/fuzz_$name.log seconds=30 dict=()
+    if [ "$name" = hsm_loader ]; then seconds=60; fi
+    rm -rf "$corpus" && mkdir -p "$corpus"
+    if [ -d "tests/fuzz/corpus/$name" ]; then cp "tests/fuzz/corpus/$name"/* "$corpus"/; fi
+    if [ -f "tests/fuzz/dict/$name.dict" ]; then dict=(-dict="tests/fuzz/dict/$name.dict"); fi
+    if ! "build/fuzz/tests/fuzz/fuzz_$name" -seed=1 -max_total_time="${HS_FUZZ_SECONDS:-$seconds}" -timeout=10 \
+        -print_final_stats=1 -artifact_prefix="build/fuzz/$name-" "${dict[@]}" "$corpus" > "$log" 2>&1; then
+      tail -n 80 "$log" >&2
+      echo "fuzz_$name failed; the input: $(sed -n 's/.*Test unit written to //p' "$log")" >&2
+      exit 1
+    fi
+    echo "fuzz_$name: $(grep -E '^#[0-9]+[[:space:]]+DONE' "$log")"
+  done
 fi
 echo "handsteady: all tests passed"

@@ -338,6 +338,37 @@ TEST_CASE("bvh: errors name file, line and token") {
   CHECK(contains(e, "file ends"));
 }
 
+// Inputs that crashed fuzz_bvh (tests/fuzz): a frame count was reserved before any frame was read
+// (2.4 GB for "Frames: 99999999"), and deep JOINT nesting overflowed the stack.
+TEST_CASE("bvh: a huge frame count or hierarchy is an error, not an allocation or a stack overflow") {
+  auto parse = [](const std::string& text) {
+    std::istringstream s(text);
+    return parse_bvh(s, "t.bvh");
+  };
+  const std::string huge_count = "HIERARCHY\nROOT A\n{\nOFFSET 0 0 0\n}\nMOTION\nFrames: 99999999\nFrame Time: 1\n";
+  std::string e = input_error([&] { parse(huge_count); });
+  CHECK(contains(e, "file ends after 0 of 99999999 frames"));
+
+  auto nested = [](int depth) {
+    std::string s = "HIERARCHY\nROOT j0 {OFFSET 0 0 0\n";
+    for (int d = 1; d < depth; ++d) s += fmt::format("JOINT j{} {{OFFSET 0 0 0\n", d);
+    return s + std::string(static_cast<size_t>(depth), '}') + "\nMOTION\nFrames: 0\nFrame Time: 1\n";
+  };
+  CHECK(parse(nested(256)).joints.size() == 256);
+  e = input_error([&] { parse(nested(257)); });
+  CHECK(contains(e, "t.bvh:258: column 'j256': joints nested more than 256 deep"));
+  CHECK(contains(input_error([&] { parse(nested(100'000)); }), "nested more than 256 deep"));
+
+  auto siblings = [](int joints) {
+    std::string s = "HIERARCHY\nROOT j0 {OFFSET 0 0 0\n";
+    for (int j = 1; j < joints; ++j) s += fmt::format("JOINT j{} {{OFFSET 0 0 0}}\n", j);
+    return s + "}\nMOTION\nFrames: 0\nFrame Time: 1\n";
+  };
+  CHECK(parse(siblings(1024)).joints.size() == 1024);
+  e = input_error([&] { parse(siblings(1025)); });
+  CHECK(contains(e, "t.bvh:1026: column 'j1024': more than 1024 joints"));
+}
+
 namespace {
 
 // A ManipNet-named hand: every chain along +X, spread in Y; all channels zero except

@@ -9,6 +9,7 @@
 
 #include <Eigen/Geometry>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <fstream>
@@ -18,6 +19,12 @@
 namespace hs {
 
 namespace {
+
+// Bounds on the hierarchy, far above real skeletons (a full body with both hands has
+// under 100 joints, chains under 30 deep): they keep the recursive parse off the end of
+// the stack and the duplicate-name check (linear per joint) small for any file.
+constexpr size_t kMaxJoints = 1024;
+constexpr int kMaxDepth = 256;
 
 struct Token {
   std::string_view text;
@@ -32,7 +39,7 @@ class HierarchyParser {
   void parse(BvhData& out) {
     expect("HIERARCHY");
     expect("ROOT");
-    parse_joint(out, -1);
+    parse_joint(out, -1, 1);
     if (pos_ != tokens_.size()) fail(tokens_[pos_], "unexpected text after the ROOT joint's closing '}'");
   }
 
@@ -69,8 +76,10 @@ class HierarchyParser {
     return std::nullopt;
   }
 
-  void parse_joint(BvhData& out, int parent) {
+  void parse_joint(BvhData& out, int parent, int depth) {
     const Token& name = next("a joint name");
+    if (out.joints.size() == kMaxJoints) fail(name, fmt::format("more than {} joints", kMaxJoints));
+    if (depth > kMaxDepth) fail(name, fmt::format("joints nested more than {} deep", kMaxDepth));
     BvhJoint joint;
     joint.name = std::string(name.text);
     joint.parent = parent;
@@ -104,7 +113,7 @@ class HierarchyParser {
         out.channel_count += count;
         have_channels = true;
       } else if (t.text == "JOINT") {
-        parse_joint(out, self);
+        parse_joint(out, self, depth + 1);
       } else if (t.text == "End") {
         expect("Site");
         expect("{");
@@ -203,7 +212,8 @@ BvhData parse_bvh(std::istream& in, const std::string& source_name) {
   bvh.frame_time = parse_finite_number(w[2], {source_name, i, "Frame Time"});
   if (!(bvh.frame_time > 0.0)) throw InputError({source_name, i, "Frame Time"}, "frame time must be positive");
 
-  bvh.frames.reserve(frames);
+  // The count is the file's claim: reserve no more than the lines that are left could hold.
+  bvh.frames.reserve(std::min(frames, static_cast<size_t>(n_lines - i)));
   for (; i < n_lines; ++i) {
     const auto values = detail::split_ws(lines[static_cast<size_t>(i)]);
     if (values.empty()) continue;

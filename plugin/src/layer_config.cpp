@@ -13,6 +13,8 @@
 #include <filesystem>
 #include <fstream>
 #include <optional>
+#include <sstream>
+#include <string_view>
 
 namespace hs::layer {
 namespace {
@@ -123,16 +125,11 @@ void read_number(const nlohmann::json& obj, const char* key, double& dst, double
     dst = v.get<double>();
 }
 
-void apply_file(const std::string& path, Applier& a) {
-  std::ifstream in(path);
-  const std::string where = path;
-  if (!in) {
-    a.warnings.push_back(where + ": cannot open configuration file");
-    return;
-  }
+// The JSON text of a configuration file (named `where` in warnings) applied to a.c.
+void apply_json(std::string_view text, const std::string& where, Applier& a) {
   nlohmann::json j;
   try {
-    j = nlohmann::json::parse(in);
+    j = nlohmann::json::parse(text);
   } catch (const std::exception& e) {
     a.warnings.push_back(where + ": invalid JSON: " + e.what());
     return;
@@ -203,6 +200,17 @@ void apply_file(const std::string& path, Applier& a) {
   }
   if (j.contains("desp") && j["desp"].is_object())
     read_number(j["desp"], "alpha", f.desp.alpha, 1e-6, where + ": desp", a.warnings);
+}
+
+void apply_file(const std::string& path, Applier& a) {
+  std::ifstream in(path);
+  if (!in) {
+    a.warnings.push_back(path + ": cannot open configuration file");
+    return;
+  }
+  std::ostringstream text;
+  text << in.rdbuf();
+  apply_json(text.str(), path, a);
 }
 
 // Folder of this shared library (dladdr on one of its functions), empty when unknown.
@@ -299,6 +307,14 @@ std::array<HandSettings, 2> load_hand_settings(std::vector<std::string>& warning
     if (auto d = parse_double(*v)) a.horizon_ms(*d, "HANDSTEADY_HORIZON_MS");
   apply_hand_env(a);
   return c.hands;
+}
+
+LayerConfig parse_layer_config_json(std::string_view text, const std::string& where,
+                                    std::vector<std::string>& warnings) {
+  LayerConfig c;
+  Applier a{c, warnings};
+  apply_json(text, where, a);
+  return c;
 }
 
 LoadedConfig load_layer_config() {

@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace hs::layer {
@@ -83,6 +84,12 @@ LoadedConfig load_layer_config();
 // (smoothing, horizon_ms: global and per hand), for re-reading while the app runs; bad
 // values are reported in warnings and the defaults kept.
 std::array<HandSettings, 2> load_hand_settings(std::vector<std::string>& warnings);
+
+// Defaults with the JSON configuration text applied (what load_layer_config does with
+// the HANDSTEADY_CONFIG file, before the environment and the engine choice): never
+// throws for bad text; each problem is a warning prefixed with `where`. Loads no model.
+LayerConfig parse_layer_config_json(std::string_view text, const std::string& where,
+                                    std::vector<std::string>& warnings);
 
 // Picks the engine: method "stgae", or no method given and a model found -> load the model
 // (config.model_path, else hs::lookup_default_model next to the installed layer, else the
