@@ -125,6 +125,7 @@ struct TrackerData {
   SemanticsProbe probe;
   std::array<Pose, 2> last_sample;
   std::atomic<TimeSemantics> semantics{TimeSemantics::History};  // probe's verdict, read without the lock
+  std::atomic<XrTime> last_stamp{0};  // date of the newest sample fed (0: none yet)
   std::atomic<bool> passthrough{false};
   std::unique_ptr<Recording> recording;
   int serial = 0;
@@ -363,7 +364,12 @@ void filter_answer(TrackerData& t, const XrHandJointsLocateInfoEXT& info, XrHand
   const bool any = any_joint_tracked(observed);
 
   // Is this a new sample, and what time is it from? Probe the runtime's time semantics now and then.
-  const XrTime now = inst.now();
+  // The runtime's clock is read only where it matters: a latest-pose runtime, or a time
+  // far from the last sample's (the app's time chaos).
+  const XrTime last_stamp = t.last_stamp.load(std::memory_order_relaxed);
+  const bool far_time = last_stamp == 0 || sample_time > last_stamp + 1'000'000'000 ||
+                        sample_time < last_stamp - 1'000'000'000;
+  const XrTime now = semantics == TimeSemantics::Latest || far_time ? inst.now() : 0;
   bool fresh = false;
   bool probe = false;
   {
@@ -381,7 +387,8 @@ void filter_answer(TrackerData& t, const XrHandJointsLocateInfoEXT& info, XrHand
       if (t.probe.semantics() == TimeSemantics::Latest)
         log_once(g_logged_latest, LogLevel::Info,
                  fmt::format("the runtime answers its latest pose whatever the time asked: samples are dated by {}",
-                             now ? "the runtime's clock" : "the asked time (no XR_KHR_convert_timespec_time)"));
+                             inst.ConvertTimespecTimeToTimeKHR ? "the runtime's clock"
+                                                               : "the asked time (no XR_KHR_convert_timespec_time)"));
     }
   }
   XrTime stamp = sample_time, query = info.time;
@@ -396,6 +403,7 @@ void filter_answer(TrackerData& t, const XrHandJointsLocateInfoEXT& info, XrHand
     fresh = false;
     log_once(g_logged_time, LogLevel::Info, "a hand query far from the runtime's now: not fed to the filter");
   }
+  if (fresh) t.last_stamp.store(stamp, std::memory_order_relaxed);
   Answer answer;
   const bool have = filter->update(stamp, fresh ? &observed : nullptr, query, answer);
   if (t.recording) {

@@ -5,7 +5,8 @@
 // - Latest: its newest pose whatever the time (Monado's remote driver, simple drivers).
 //   The layer must then date samples by its own clock, not by the asked time, and skip
 //   repeats, or it predicts from stale-looking samples.
-// The layer probes now and then: the same hand at two times 25 ms apart. Bit-identical
+// The layer probes now and then (every 4th call while learning, every 256th after): the
+// same hand at two times 25 ms apart. Bit-identical
 // answers while the hand moves vote Latest; different answers vote History. The verdict
 // is the majority of the last kWindow votes (History until then). Pure state, no locks:
 // the caller serialises. See docs/OPENXR_LAYER.md "Runtimes".
@@ -22,7 +23,7 @@ class SemanticsProbe {
   static constexpr int kWindow = 8;
   static constexpr int64_t kProbeOffsetNs = 25'000'000;
 
-  // Whether this call should probe (every 4th call while learning, every 64th after).
+  // Whether this call should probe (every 4th call while learning, every 256th after).
   bool due() noexcept;
   // The hand answered `a` at one time and `b` kProbeOffsetNs earlier (world space, NaN =
   // missing); `moving`: the hand's answers changed since the last probe (a still hand

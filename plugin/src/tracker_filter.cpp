@@ -3,6 +3,7 @@
 #include "handsteady/stgae_engine.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -126,14 +127,27 @@ void TrackerFilter::submit(XrTime t, const Pose& observed) noexcept {
     if (q_count_ < kQueue) ++q_count_;
     else q_head_ = (q_head_ + 1) % kQueue;
   }
-  in_cv_.notify_one();
+  // The asynchronous worker polls (kPollActive): waking a thread on another core costs an
+  // inter-processor interrupt, tens of microseconds on a VM, in the app's call. Lockstep
+  // (tests on simulated clocks) wakes it at once.
+  if (exec_ == Execution::Lockstep) in_cv_.notify_one();
 }
 
 void TrackerFilter::run_worker() noexcept {
+  auto last_sample = std::chrono::steady_clock::now();
   for (;;) {
     {
       std::unique_lock lock(in_mu_);
-      in_cv_.wait(lock, [&] { return q_count_ > 0 || stop_; });
+      const auto ready = [&] { return q_count_ > 0 || stop_; };
+      if (exec_ == Execution::Lockstep) {
+        in_cv_.wait(lock, ready);
+      } else {
+        // Poll while the hand is tracked; back off once no sample came for a while.
+        while (!ready()) {
+          const bool idle = std::chrono::steady_clock::now() - last_sample > kIdleAfter;
+          in_cv_.wait_for(lock, idle ? kPollIdle : kPollActive, ready);
+        }
+      }
       if (stop_) return;
       taken_ = queue_[q_head_];
       q_head_ = (q_head_ + 1) % kQueue;
@@ -141,6 +155,7 @@ void TrackerFilter::run_worker() noexcept {
       busy_ = true;
     }
     process(taken_);
+    last_sample = std::chrono::steady_clock::now();
     {
       std::lock_guard lock(in_mu_);
       busy_ = false;

@@ -10,9 +10,10 @@
 // history of past estimates, so any asked time is answered by interpolation.
 //
 // Execution: Inline runs the engine in the submitting thread (classical filters: a few
-// microseconds); Worker runs it on a thread of this tracker, so an app call costs a copy
-// and an interpolation and answers from the state before its own sample (the hand-off:
-// at most one runtime sample period of added latency); Lockstep is Worker whose submit
+// microseconds); Worker runs it on a thread of this tracker, which polls for samples
+// every 0.5 ms (no wake-up in the app's call), so an app call costs a copy and an
+// interpolation and answers from the state before its own sample (the hand-off: at most
+// one runtime sample period of added latency); Lockstep is Worker whose submit
 // first waits for the worker to finish earlier samples: the same answers, deterministic
 // (tests on simulated clocks, which run frames faster than real time).
 //
@@ -32,6 +33,7 @@
 
 #include <array>
 #include <atomic>
+#include <chrono>
 #include <condition_variable>
 #include <memory>
 #include <mutex>
@@ -83,6 +85,11 @@ class TrackerFilter {
   static constexpr double kMaxDeviationM = 0.3;        // engine this far from its input: restart
   static constexpr double kVelocityCutoffHz = 5.0;     // low-pass of the output's finite differences
   static constexpr double kGainRate = 0.05;            // EMA rate of the engine's gain estimate
+  // The asynchronous worker's polling: every kPollActive while samples come, every
+  // kPollIdle once none came for kIdleAfter (a lost hand, an unused motion range).
+  static constexpr std::chrono::microseconds kPollActive{500};
+  static constexpr std::chrono::milliseconds kPollIdle{20};
+  static constexpr std::chrono::milliseconds kIdleAfter{500};
 
  private:
   struct Sample {
