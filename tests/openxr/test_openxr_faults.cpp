@@ -10,6 +10,8 @@
 #include <limits>
 #include <thread>
 
+#include <time.h>
+
 #include "handsteady/synth.hpp"
 #include "handsteady/track_ops.hpp"
 #include "handsteady_xr/raw_joints_ext.h"
@@ -438,4 +440,37 @@ TEST_CASE("the network on the layer's worker, in real time (90 Hz real clock): d
   CHECK(s.frames > 400);
   CHECK(s.layer_mm() < 0.85 * s.raw_mm());
   app.shutdown();
+}
+
+TEST_CASE("the network runs off the app's thread: the caller's CPU time per call is a fraction of running it inline") {
+  // CPU time of the calling thread (CLOCK_THREAD_CPUTIME_ID), not wall time: what the
+  // app's thread itself spends in the layer, whatever the machine's load.
+  const TrackFiles f = make_tracks("offthread", 3.0);
+  auto caller_cpu_us = [&](const char* worker) {
+    reset_env(f);
+    unset_env("HANDSTEADY_METHOD");  // the shipped model
+    set_env("HANDSTEADY_WORKER", worker);
+    enable_layers({kLayer});
+    App app;
+    double total = 0.0;
+    int calls = 0;
+    for (int i = 0; i < 200; ++i) {
+      const XrTime T = app.frame();
+      for (XrHandEXT hand : {XR_HAND_LEFT_EXT, XR_HAND_RIGHT_EXT}) {
+        timespec a{}, b{};
+        clock_gettime(CLOCK_THREAD_CPUTIME_ID, &a);
+        REQUIRE(app.locate(hand, app.local, T).result == XR_SUCCESS);
+        clock_gettime(CLOCK_THREAD_CPUTIME_ID, &b);
+        if (i < 20) continue;
+        total += static_cast<double>(b.tv_sec - a.tv_sec) * 1e6 + static_cast<double>(b.tv_nsec - a.tv_nsec) * 1e-3;
+        ++calls;
+      }
+    }
+    app.shutdown();
+    return total / calls;
+  };
+  const double inline_us = caller_cpu_us("inline");
+  const double worker_us = caller_cpu_us("worker");
+  MESSAGE("caller CPU per call: network inline " << inline_us << " us, on the worker " << worker_us << " us");
+  CHECK(worker_us < 0.35 * inline_us);
 }
