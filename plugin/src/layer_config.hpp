@@ -29,7 +29,9 @@ inline FilterConfig layer_default_filter() {
 enum class Engine { Classical, Stgae };
 
 // Where the engine runs (tracker_filter.hpp): auto = a worker thread for Multi-STGAE, the
-// app's thread for the classical filters; lockstep = worker answers, deterministic (tests).
+// app's thread for the classical filters; lockstep = as auto, with the network's worker in
+// lockstep (its real-time answers, deterministic: simulated clocks); inline, worker: for
+// every engine.
 enum class WorkerMode { Auto, Inline, Worker, Lockstep };
 
 // What a user may tune per hand while the app runs (the configuration file is re-read

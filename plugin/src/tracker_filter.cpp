@@ -37,14 +37,15 @@ double max_ahead_s(const LayerConfig& c) {
 }
 
 Execution execution(const LayerConfig& c) {
+  // The network runs off the app's thread; classical filters cost less than the hand-off.
+  const bool network = c.engine == Engine::Stgae;
   switch (c.worker) {
     case WorkerMode::Inline: return Execution::Inline;
     case WorkerMode::Worker: return Execution::Worker;
-    case WorkerMode::Lockstep: return Execution::Lockstep;
+    case WorkerMode::Lockstep: return network ? Execution::Lockstep : Execution::Inline;
     case WorkerMode::Auto: break;
   }
-  // The network runs off the app's thread; classical filters cost less than the hand-off.
-  return c.engine == Engine::Stgae ? Execution::Worker : Execution::Inline;
+  return network ? Execution::Worker : Execution::Inline;
 }
 
 double smoothstep(double x) {
