@@ -63,6 +63,7 @@ TEST_CASE("gate: a hand moving faster than any hand, or back from a loss elsewhe
   CHECK_FALSE(hand_jumped(a, a + Eigen::Vector3d(0.02, 0, 0), 0.011));  // 1.8 m/s
   CHECK(hand_jumped(a, a + Eigen::Vector3d(0.3, 0, 0), 0.011));          // 27 m/s
   CHECK_FALSE(hand_jumped(a, a + Eigen::Vector3d(0.02, 0, 0), 0.3));    // back from a loss, where it was
+  CHECK_FALSE(hand_jumped(a, a + Eigen::Vector3d(0.08, 0, 0), 0.2));    // ... or moved on at 0.4 m/s
   CHECK(hand_jumped(a, a + Eigen::Vector3d(0.3, 0, 0), 0.3));           // back 30 cm away
   CHECK_FALSE(hand_jumped(Eigen::Vector3d::Constant(kNaN), a, 0.011));  // nothing to compare
 }

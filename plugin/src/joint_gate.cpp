@@ -55,7 +55,7 @@ bool hand_jumped(const Eigen::Vector3d& prev, const Eigen::Vector3d& now, double
   if (!prev.allFinite() || !now.allFinite() || !(dt_s >= 0.0)) return false;
   const double d = (now - prev).norm();
   if (d > limits.max_speed_m_s * dt_s + limits.jump_slack_m) return true;
-  return dt_s > limits.lost_s && d > limits.reacquire_m;
+  return dt_s > limits.lost_s && d > limits.reacquire_m + limits.reacquire_m_s * dt_s;
 }
 
 }  // namespace hs::layer

@@ -18,7 +18,9 @@ struct GateLimits {
   double max_speed_m_s = 15.0;      // the hand's centre faster than this between samples: a jump
   double jump_slack_m = 0.05;       // ... beyond this distance (tracker noise at tiny time steps)
   double lost_s = 0.12;             // a sample gap longer than this is a loss (20 Hz runtimes: 0.05) ...
-  double reacquire_m = 0.03;        // ... and a hand back farther than this from where it was lost restarts
+  double reacquire_m = 0.05;        // ... and a hand back farther than this plus ...
+  double reacquire_m_s = 0.5;       // ... this speed times the gap from where it was lost restarts
+                                    // (slower moves are bridged: writing hands drop out briefly)
 };
 
 struct GateResult {

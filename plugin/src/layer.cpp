@@ -367,8 +367,8 @@ void filter_answer(TrackerData& t, const XrHandJointsLocateInfoEXT& info, XrHand
   // The runtime's clock is read only where it matters: a latest-pose runtime, or a time
   // far from the last sample's (the app's time chaos).
   const XrTime last_stamp = t.last_stamp.load(std::memory_order_relaxed);
-  const bool far_time = last_stamp == 0 || sample_time > last_stamp + 1'000'000'000 ||
-                        sample_time < last_stamp - 1'000'000'000;
+  const XrTime from_last = sample_time - last_stamp;  // both positive: no overflow
+  const bool far_time = last_stamp == 0 || from_last > 1'000'000'000 || from_last < -1'000'000'000;
   const XrTime now = semantics == TimeSemantics::Latest || far_time ? inst.now() : 0;
   bool fresh = false;
   bool probe = false;
@@ -399,7 +399,7 @@ void filter_answer(TrackerData& t, const XrHandJointsLocateInfoEXT& info, XrHand
   }
   // With a clock, a sample dated more than a second away from now is the app's time chaos
   // (0, far future, far past): it is not fed; the engine's answer then decides.
-  if (now > 0 && (stamp > now + 1'000'000'000 || stamp < now - 1'000'000'000)) {
+  if (now > 0 && (stamp - now > 1'000'000'000 || stamp - now < -1'000'000'000)) {
     fresh = false;
     log_once(g_logged_time, LogLevel::Info, "a hand query far from the runtime's now: not fed to the filter");
   }

@@ -179,8 +179,10 @@ void TrackerFilter::process(const Sample& s) noexcept {
   Pose obs = s.pose;
   const GateResult gate = gate_joints(obs, limits_);
   if (!gate.usable()) return;  // nothing plausible: not a sample
-  if (!running_ || s.t <= 0) {
-    if (s.t <= 0) return;
+  // Beyond a quarter of XrTime's range no runtime dates a sample (year 2082 on a Unix
+  // clock); refusing such times keeps the path's knot times from overflowing.
+  if (s.t <= 0 || s.t > std::numeric_limits<XrTime>::max() / 4) return;
+  if (!running_) {
     restart(s.t);
   } else {
     const XrTime dt = s.t - last_;  // both positive: no overflow

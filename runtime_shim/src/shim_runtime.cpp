@@ -735,9 +735,12 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
     constexpr XrTime h = 2'000'000;
     std::array<Eigen::Vector3d, kJointCount> p0, p1;
     std::array<Eigen::Matrix3d, kJointCount> r0, r1;
-    const Pose w0 = hand_at(r, hand, info->time - h), w1 = hand_at(r, hand, info->time + h);
-    joints_in_base(info->time - h, w0, p0, r0);
-    joints_in_base(info->time + h, w1, p1, r1);
+    // The later time saturates near INT64_MAX (apps may ask any time).
+    const XrTime t0 = info->time - h;
+    const XrTime t1 = info->time > std::numeric_limits<XrTime>::max() - h ? info->time : info->time + h;
+    const Pose w0 = hand_at(r, hand, t0), w1 = hand_at(r, hand, t1);
+    joints_in_base(t0, w0, p0, r0);
+    joints_in_base(t1, w1, p1, r1);
     for (int j = 0; j < kJointCount; ++j) {
       XrHandJointVelocityEXT& v = vel->jointVelocities[j];
       v.velocityFlags = 0;
