@@ -42,7 +42,7 @@ export XR_API_LAYER_PATH=$root/$b/$libdir/handsteady
 export HANDSTEADY_SHIM_TRACK=$out/handwriting.csv HANDSTEADY_SHIM_CLOCK=sim:11.111111 HANDSTEADY_SHIM_FUTURE=hold
 # The simulated clock runs faster than real time: the layer's worker answers in lockstep,
 # as it does in real time when it keeps up (docs/OPENXR_LAYER.md "Worker").
-export HANDSTEADY_WORKER=lockstep
+export HANDSTEADY_WORKER=${HANDSTEADY_WORKER:-lockstep}
 unset XR_ENABLE_API_LAYERS HANDSTEADY_CONFIG HANDSTEADY_MODEL
 # A frame PNG every second; with ffmpeg installed every 3rd frame, made into a 30 fps video.
 every=90
