@@ -83,6 +83,17 @@ TEST_CASE("semantics probe: identical answers 25 ms apart while moving mean late
   CHECK(due == 1);  // every 256th call once it has a full window
   CHECK(same_pose(a, a));
   CHECK_FALSE(same_pose(a, b));
+  // A repeat seen through the app's base space and back: float rounding is no new sample,
+  // 20 um of motion of one joint is, and so is a joint lost or found.
+  Pose rounded = a, moved = a, lost = a;
+  rounded.row(3).array() += 3e-7;
+  moved(7, 1) += 2e-5;
+  lost.row(9).setConstant(std::nan(""));
+  CHECK_FALSE(same_pose(a, rounded));
+  CHECK(repeated_pose(a, rounded));
+  CHECK_FALSE(repeated_pose(a, moved));
+  CHECK_FALSE(repeated_pose(a, lost));
+  CHECK_FALSE(repeated_pose(a, b));
 }
 
 TEST_CASE("tracker filter: first answer is the runtime's (weight 0), blends in, restarts on a jump and a time reset") {

@@ -335,6 +335,18 @@ bool locate_base(const InstanceData& inst, XrSpace world, XrSpace base, XrTime t
   return true;
 }
 
+// The runtime's answer to the app (base space) in the layer's world space: what
+// locate_world would answer at the same time, up to float rounding. Garbage rows: NaN.
+void world_from_answer(const XrHandJointLocationEXT* joints, const JointMask& garbage, const xr::Rigid& world_from_base,
+                       Pose& pose) noexcept {
+  for (int j = 0; j < kJointCount; ++j) {
+    if (position_tracked(joints[j]) && !garbage[j])
+      pose.row(j) = (world_from_base * xr::to_eigen(joints[j].pose.position)).transpose();
+    else
+      pose.row(j).setConstant(std::numeric_limits<double>::quiet_NaN());
+  }
+}
+
 // Replaces the runtime's answer in `out` (already filled for the app) by the engine's.
 // Returns without touching `out` whenever something needed is missing.
 void filter_answer(TrackerData& t, const XrHandJointsLocateInfoEXT& info, XrHandJointLocationsEXT& out,
@@ -358,9 +370,30 @@ void filter_answer(TrackerData& t, const XrHandJointsLocateInfoEXT& info, XrHand
   XrTime sample_time = info.time;
   if (horizon > 0 && info.time - horizon > 0) sample_time = info.time - horizon;
   const bool same_time = sample_time == info.time;
+  bool probe = false;
+  {
+    std::lock_guard lock(t.sample_mu);
+    probe = t.probe.due();
+  }
+  // At the asked time the app's answer is the sample: taken to the world space with one
+  // xrLocateSpace instead of a second joint query (a third of the layer's cost per call).
+  // A probe compares two runtime answers bit for bit, and the runtime's world velocities
+  // are needed where the base's motion is unknown: those ask the runtime again.
+  xr::Rigid base_from_world;
+  BaseMotion motion;
+  bool based = false, base_tried = false;
   std::array<XrHandJointVelocityEXT, XR_HAND_JOINT_COUNT_EXT> wvj{};
   Pose observed;
-  if (!locate_world(t, info, sample_time, observed, app_vel && same_time ? &wvj : nullptr)) return;
+  bool have_sample = false;
+  if (same_time && !probe) {
+    based = locate_base(inst, t.world, info.baseSpace, info.time, base_from_world, motion);
+    base_tried = true;
+    if (based && (motion.valid || !app_vel)) {
+      world_from_answer(out.jointLocations, garbage, base_from_world.inverse(), observed);
+      have_sample = true;
+    }
+  }
+  if (!have_sample && !locate_world(t, info, sample_time, observed, app_vel && same_time ? &wvj : nullptr)) return;
   const bool any = any_joint_tracked(observed);
 
   // Is this a new sample, and what time is it from? Probe the runtime's time semantics now and then.
@@ -371,14 +404,12 @@ void filter_answer(TrackerData& t, const XrHandJointsLocateInfoEXT& info, XrHand
   const bool far_time = last_stamp == 0 || from_last > 1'000'000'000 || from_last < -1'000'000'000;
   const XrTime now = semantics == TimeSemantics::Latest || far_time ? inst.now() : 0;
   bool fresh = false;
-  bool probe = false;
   {
     std::lock_guard lock(t.sample_mu);
-    fresh = any && !same_pose(observed, t.last_sample[state_index]);
+    fresh = any && !repeated_pose(observed, t.last_sample[state_index]);
     if (any) t.last_sample[state_index] = observed;
-    probe = any && t.probe.due();
   }
-  if (probe && sample_time - SemanticsProbe::kProbeOffsetNs > 0) {
+  if (probe && any && sample_time - SemanticsProbe::kProbeOffsetNs > 0) {
     Pose earlier;
     if (locate_world(t, info, sample_time - SemanticsProbe::kProbeOffsetNs, earlier, nullptr)) {
       std::lock_guard lock(t.sample_mu);
@@ -413,9 +444,8 @@ void filter_answer(TrackerData& t, const XrHandJointsLocateInfoEXT& info, XrHand
   }
   if (!have) return;
 
-  xr::Rigid base_from_world;
-  BaseMotion motion;
-  if (!locate_base(inst, t.world, info.baseSpace, info.time, base_from_world, motion)) return;
+  if (!base_tried) based = locate_base(inst, t.world, info.baseSpace, info.time, base_from_world, motion);
+  if (!based) return;
   if (!motion.valid && same_time) motion.world_velocities = wvj.data();
   // Where the runtime's hand is not where the engine's is (re-acquired elsewhere, not yet
   // seen by the engine), the runtime's answer stands: no hand moves 8 cm beyond its

@@ -127,6 +127,7 @@ void TrackerFilter::submit(XrTime t, const Pose& observed) noexcept {
     queue_[slot].pose = observed;
     if (q_count_ < kQueue) ++q_count_;
     else q_head_ = (q_head_ + 1) % kQueue;
+    if (exec_ == Execution::Worker) submitted_ = std::chrono::steady_clock::now();
   }
   // The asynchronous worker polls (kPollActive): waking a thread on another core costs an
   // inter-processor interrupt, tens of microseconds on a VM, in the app's call. Lockstep
@@ -144,9 +145,16 @@ void TrackerFilter::run_worker() noexcept {
         in_cv_.wait(lock, ready);
       } else {
         // Poll while the hand is tracked; back off once no sample came for a while.
-        while (!ready()) {
-          const bool idle = std::chrono::steady_clock::now() - last_sample > kIdleAfter;
-          in_cv_.wait_for(lock, idle ? kPollIdle : kPollActive, ready);
+        for (;;) {
+          while (!ready()) {
+            const bool idle = std::chrono::steady_clock::now() - last_sample > kIdleAfter;
+            in_cv_.wait_for(lock, idle ? kPollIdle : kPollActive, ready);
+          }
+          if (stop_) break;
+          const auto settled = submitted_ + kSettle;
+          const auto now = std::chrono::steady_clock::now();
+          if (now >= settled) break;
+          in_cv_.wait_for(lock, settled - now, [&] { return stop_; });
         }
       }
       if (stop_) return;

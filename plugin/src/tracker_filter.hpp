@@ -90,6 +90,10 @@ class TrackerFilter {
   static constexpr std::chrono::microseconds kPollActive{500};
   static constexpr std::chrono::milliseconds kPollIdle{20};
   static constexpr std::chrono::milliseconds kIdleAfter{500};
+  // The worker starts a step no sooner than this after the newest sample came: apps ask
+  // both hands (and often two times) back to back, and a network step running beside
+  // those calls slows them (shared caches, SMT siblings). Far below a frame.
+  static constexpr std::chrono::microseconds kSettle{300};
 
  private:
   struct Sample {
@@ -140,6 +144,7 @@ class TrackerFilter {
   std::array<Sample, kQueue> queue_;
   int q_head_ = 0, q_count_ = 0;
   bool busy_ = false, stop_ = false;
+  std::chrono::steady_clock::time_point submitted_{};  // when the newest sample came (under in_mu_)
   Sample taken_;  // worker's copy of the sample it processes
 
   // Engine state (engine thread only: the worker, or the submitter under engine_mu_).

@@ -96,6 +96,11 @@ ShimConfig shim_config_from_env() {
     else throw std::invalid_argument("HANDSTEADY_SHIM_FRAMES: expected normal or headless-zero, got '" + s + "'");
   }
   c.head_motion = env("HANDSTEADY_SHIM_HEAD_MOTION") == "1";
+  if (std::string s = env("HANDSTEADY_SHIM_SPACE_VELOCITY"); !s.empty()) {
+    if (s != "0" && s != "1")
+      throw std::invalid_argument("HANDSTEADY_SHIM_SPACE_VELOCITY: expected 0 or 1, got '" + s + "'");
+    c.space_velocity = s == "1";
+  }
 
   if (std::string s = env("HANDSTEADY_SHIM_FAULTS"); !s.empty()) {
     size_t start = 0;

@@ -44,6 +44,7 @@ struct ShimConfig {
   int64_t capture_latency_ns = 30'000'000;  // extrapolate: a capture is available this long after its time
   FrameMode frames = FrameMode::Normal;       // HANDSTEADY_SHIM_FRAMES=normal|headless-zero
   bool head_motion = false;      // HANDSTEADY_SHIM_HEAD_MOTION=1
+  bool space_velocity = true;    // HANDSTEADY_SHIM_SPACE_VELOCITY=0: xrLocateSpace answers no XrSpaceVelocity
   FaultRates faults;             // HANDSTEADY_SHIM_FAULTS=nan:<p>,huge:<p>,quat:<p>,origin:<p>,space:<p>,velocity:<p>
 };
 

@@ -639,8 +639,23 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateSpace(XrSpace space, XrSpace baseSpace, XrT
     const float bad = fault_draw(time, 0, 0, 5) < 0.5 ? std::numeric_limits<float>::quiet_NaN() : 1e30f;
     location->pose.position = {bad, bad, bad};
   }
-  for (auto* s = static_cast<XrBaseOutStructure*>(location->next); s; s = s->next)
-    if (s->type == XR_TYPE_SPACE_VELOCITY) reinterpret_cast<XrSpaceVelocity*>(s)->velocityFlags = 0;
+  for (auto* s = static_cast<XrBaseOutStructure*>(location->next); s; s = s->next) {
+    if (s->type != XR_TYPE_SPACE_VELOCITY) continue;
+    auto* v = reinterpret_cast<XrSpaceVelocity*>(s);
+    v->velocityFlags = 0;
+    if (!r.cfg.space_velocity) continue;
+    // As real runtimes do: the space's origin and rotation relative to the base, in the
+    // base's axes (central difference of the relative pose over +-1 ms).
+    constexpr double h = 1e-3;
+    const auto rel = [&](double u) {
+      return Rigid(space_in_world(r, b->second, u).inverse() * space_in_world(r, a->second, u));
+    };
+    const Rigid p = rel(t + h), m = rel(t - h);
+    const Eigen::AngleAxisd turn(Eigen::Matrix3d(p.linear() * m.linear().transpose()));
+    v->linearVelocity = xr::to_xr(Eigen::Vector3d((p.translation() - m.translation()) / (2.0 * h)));
+    v->angularVelocity = xr::to_xr(Eigen::Vector3d(turn.axis() * turn.angle() / (2.0 * h)));
+    v->velocityFlags = XR_SPACE_VELOCITY_LINEAR_VALID_BIT | XR_SPACE_VELOCITY_ANGULAR_VALID_BIT;
+  }
   return XR_SUCCESS;
 }
 

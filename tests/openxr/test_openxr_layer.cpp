@@ -322,6 +322,61 @@ TEST_CASE("denoise: orientations follow the new bone directions; velocities stay
   app.shutdown();
 }
 
+// In a moving base space the app's velocity is the hand's plus the base's own motion. The
+// layer takes the base's motion from XrSpaceVelocity when the runtime gives it, else from
+// the runtime's joint velocities in both spaces; either way it must match the truth.
+TEST_CASE("denoise in a moving VIEW: velocities include the base's motion, with and without XrSpaceVelocity") {
+  const TrackFiles f = make_tracks("viewvel", 3.0);
+  for (const std::string space_velocity : {"1", "0"}) {
+    CAPTURE(space_velocity);
+    reset_env(f);
+    set_env("HANDSTEADY_SHIM_HEAD_MOTION", "1");
+    set_env("HANDSTEADY_SHIM_SPACE_VELOCITY", space_velocity);
+    enable_layers({kLayer});
+    App app;
+    double err = 0.0, raw_err = 0.0, still_err = 0.0;
+    long n = 0;
+    for (int i = 0; i < 200; ++i) {
+      const XrTime T = app.frame();
+      const Joints j = app.locate(XR_HAND_RIGHT_EXT, app.view, T, true);
+      REQUIRE(j.active == XR_TRUE);
+      if (i < 30) continue;
+      // Positions in VIEW at T +- h from the clean and the noisy track.
+      const auto in_view = [&](const HandSeries& s, XrTime t, int k) {
+        const xr::Rigid view_from_local = xr::to_rigid(app.space_pose(app.local, app.view, t));
+        return Eigen::Vector3d(view_from_local * interpolate_pose(s, track_time(f, t)).row(k).transpose());
+      };
+      constexpr XrTime h = 10'000'000, hr = 2'000'000;
+      for (int k = 0; k < kJointCount; ++k) {
+        const Eigen::Vector3d vt = (in_view(f.clean_series[1], T + h, k) - in_view(f.clean_series[1], T - h, k)) / 0.02;
+        const Eigen::Vector3d vr = (in_view(f.noisy_series[1], T + hr, k) - in_view(f.noisy_series[1], T - hr, k)) / 0.004;
+        if (!vt.allFinite() || !vr.allFinite()) continue;
+        REQUIRE((j.vel[k].velocityFlags & XR_SPACE_VELOCITY_LINEAR_VALID_BIT) != 0);
+        const Eigen::Vector3d v = xr::to_eigen(j.vel[k].linearVelocity);
+        err += (v - vt).norm();
+        raw_err += (vr - vt).norm();
+        // What a layer ignoring the head would answer: the hand's motion alone, in VIEW's axes.
+        const xr::Rigid view_from_local = xr::to_rigid(app.space_pose(app.local, app.view, T));
+        const Eigen::Vector3d hand_only =
+            view_from_local.linear() *
+            Eigen::Vector3d((interpolate_pose(f.clean_series[1], track_time(f, T + h)).row(k) -
+                             interpolate_pose(f.clean_series[1], track_time(f, T - h)).row(k))
+                                .transpose() /
+                            0.02);
+        still_err += (hand_only - vt).norm();
+        ++n;
+      }
+    }
+    REQUIRE(n > 1000);
+    const double dn = static_cast<double>(n);
+    MESSAGE("VIEW velocity error: layer " << err / dn << " m/s, raw " << raw_err / dn << " m/s, head ignored "
+                                          << still_err / dn << " m/s");
+    CHECK(err < raw_err);
+    CHECK(err < 0.5 * still_err);  // the base's motion is in the answer
+    app.shutdown();
+  }
+}
+
 TEST_CASE("predict: error at the display time below the runtime's stale answer") {
   const TrackFiles f = make_tracks("predict", 5.0, 0.001);
   reset_env(f);

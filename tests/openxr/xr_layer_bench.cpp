@@ -9,6 +9,9 @@
 // HS_BENCH_LOAD=1 runs a CPU-bound thread beside the app the whole time (a headset app's
 // CPU is rarely idle). The runtime runs a real 90 Hz clock, so the worker has the time a
 // real frame gives it (HS_BENCH_CLOCK=sim: frames back to back, as before).
+// Without and with the layer alternate HS_BENCH_ROUNDS times (default 5), each round
+// HS_BENCH_FRAMES/rounds frames: on a VM whose stalls come in episodes, the median over
+// rounds of each round's added p50/p99 is the figure; all calls pooled are printed too.
 //   HS_BENCH_FRAMES=3000 xr_layer_bench
 #include "xr_test_app.hpp"
 
@@ -56,6 +59,17 @@ int bench_frames() {
   return v ? std::max(100, std::atoi(v)) : 3000;
 }
 
+int bench_rounds() {
+  const char* v = std::getenv("HS_BENCH_ROUNDS");
+  return v ? std::clamp(std::atoi(v), 1, 100) : 5;
+}
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  const size_t n = v.size();
+  return n == 0 ? 0.0 : n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
 }  // namespace
 
 TEST_CASE("layer overhead per xrLocateHandJointsEXT call") {
@@ -80,17 +94,32 @@ TEST_CASE("layer overhead per xrLocateHandJointsEXT call") {
       volatile double x = 1.0;
       while (!stop.load(std::memory_order_relaxed)) x = x * 1.0000001 + 1e-9;
     });
-  const auto off = measure(g_frames);
-  enable_layers({kLayer});
-  const auto on = measure(g_frames);
+  const int rounds = bench_rounds();
+  const int per_round = std::max(100, g_frames / rounds);
+  std::vector<double> off, on, add50, add99;
+  for (int r = 0; r < rounds; ++r) {
+    unset_env("XR_ENABLE_API_LAYERS");
+    const auto o = measure(per_round);
+    enable_layers({kLayer});
+    const auto w = measure(per_round);
+    add50.push_back(pct(w, 0.5) - pct(o, 0.5));
+    add99.push_back(pct(w, 0.99) - pct(o, 0.99));
+    std::printf("  round %d: without p50 %.2f p99 %.2f, with p50 %.2f p99 %.2f, added p50 %.2f p99 %.2f\n", r + 1,
+                pct(o, 0.5), pct(o, 0.99), pct(w, 0.5), pct(w, 0.99), add50.back(), add99.back());
+    off.insert(off.end(), o.begin(), o.end());
+    on.insert(on.end(), w.begin(), w.end());
+  }
+  std::sort(off.begin(), off.end());
+  std::sort(on.begin(), on.end());
   stop = true;
   if (spinner.joinable()) spinner.join();
-  std::printf("xrLocateHandJointsEXT, %zu calls each (us), %s clock, worker %s, %s:\n", on.size(),
+  std::printf("xrLocateHandJointsEXT, %zu calls each in %d rounds (us), %s clock, worker %s, %s:\n", on.size(), rounds,
               sim ? "simulated" : "real 90 Hz", std::getenv("HS_BENCH_WORKER") ? std::getenv("HS_BENCH_WORKER") : "auto",
               load ? "one CPU-bound thread beside the app" : "no competing load");
   std::printf("  without layer: p50 %.2f  p99 %.2f\n", pct(off, 0.5), pct(off, 0.99));
   std::printf("  with layer:    p50 %.2f  p99 %.2f\n", pct(on, 0.5), pct(on, 0.99));
-  std::printf("  added:         p50 %.2f  p99 %.2f  (target p99 <= 50 with the worker)\n", pct(on, 0.5) - pct(off, 0.5),
-              pct(on, 0.99) - pct(off, 0.99));
+  std::printf("  added, pooled: p50 %.2f  p99 %.2f\n", pct(on, 0.5) - pct(off, 0.5), pct(on, 0.99) - pct(off, 0.99));
+  std::printf("  added, median of rounds: p50 %.2f  p99 %.2f  (target p99 <= 50 with the worker)\n", median(add50),
+              median(add99));
   CHECK(on.size() == off.size());
 }
