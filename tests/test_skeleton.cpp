@@ -61,6 +61,33 @@ TEST_CASE("xr26 parent tree is a tree rooted at the wrist") {
   }
 }
 
+TEST_CASE("the hand topology table: the skeleton, the tips and the orientation bones come from it") {
+  const Skeleton& s = xr_hand_skeleton();
+  for (int j = 0; j < kJointCount; ++j) CHECK(s.parent[static_cast<size_t>(j)] == kXrParent[static_cast<size_t>(j)]);
+  // Tips: exactly the five joints named *_tip.
+  for (int j = 0; j < kJointCount; ++j) {
+    CAPTURE(j);
+    CHECK(is_tip(j) == xr_joint_names()[static_cast<size_t>(j)].ends_with("_tip"));
+  }
+  CHECK_FALSE(is_tip(-1));
+  CHECK_FALSE(is_tip(kJointCount));
+  // XR_EXT_hand_tracking: -Z points along the bone to the next joint of the finger, tips
+  // along the bone ending at them, the wrist at the middle metacarpal, the palm at the
+  // middle proximal joint (the table the layer and replay runtime used before).
+  const std::array<Edge, kJointCount> spec = {{
+      {0, 12}, {1, 11},
+      {2, 3}, {3, 4}, {4, 5}, {4, 5},
+      {6, 7}, {7, 8}, {8, 9}, {9, 10}, {9, 10},
+      {11, 12}, {12, 13}, {13, 14}, {14, 15}, {14, 15},
+      {16, 17}, {17, 18}, {18, 19}, {19, 20}, {19, 20},
+      {21, 22}, {22, 23}, {23, 24}, {24, 25}, {24, 25},
+  }};
+  for (int j = 0; j < kJointCount; ++j) {
+    CAPTURE(j);
+    CHECK(kXrFrameBone[static_cast<size_t>(j)] == spec[static_cast<size_t>(j)]);
+  }
+}
+
 TEST_CASE("xr26 symmetry edges join the same level of adjacent fingers") {
   const Skeleton& s = xr_hand_skeleton();
   CHECK(s.symmetry.size() == 19);  // thumb-index 4, then 5 for each of 3 finger pairs

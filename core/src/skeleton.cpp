@@ -55,15 +55,8 @@ Skeleton make_xr26() {
   s.joint_names.assign(kXrNames.begin(), kXrNames.end());
   std::vector<Edge> edges;
   const int wrist = idx(Joint::Wrist);
-  edges.emplace_back(wrist, idx(Joint::Palm));
-  // Thumb: wrist -> metacarpal -> proximal -> distal -> tip.
-  for (int j = idx(Joint::ThumbMetacarpal); j <= idx(Joint::ThumbTip); ++j)
-    edges.emplace_back(j == idx(Joint::ThumbMetacarpal) ? wrist : j - 1, j);
-  // Fingers: wrist -> metacarpal -> proximal -> intermediate -> distal -> tip.
-  for (int f = 0; f < 4; ++f) {
-    const int base = idx(Joint::IndexMetacarpal) + 5 * f;
-    for (int k = 0; k < 5; ++k) edges.emplace_back(k == 0 ? wrist : base + k - 1, base + k);
-  }
+  for (int j = 0; j < kJointCount; ++j)
+    if (const int p = kXrParent[static_cast<size_t>(j)]; p >= 0) edges.emplace_back(p, j);
   set_tree(s, wrist, edges);
   // Symmetry: same anatomical level on adjacent fingers. The thumb lacks an
   // intermediate phalanx, so it pairs metacarpal/proximal/distal/tip with the index's.

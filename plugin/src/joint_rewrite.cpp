@@ -40,7 +40,7 @@ JointMask garbage_joints(const XrHandJointLocationEXT* joints) noexcept {
 }
 
 int repair_garbage(const JointMask& garbage, XrHandJointLocationEXT* joints, XrHandJointVelocityEXT* velocities) noexcept {
-  const auto& parent = xr_hand_skeleton().parent;
+  const auto& parent = kXrParent;
   int changed = 0;
   for (int j = 0; j < kJointCount; ++j) {
     XrHandJointLocationEXT& loc = joints[j];
@@ -121,7 +121,7 @@ RewriteStats rewrite_joints(const Answer& answer, double smoothing, const xr::Ri
   std::array<XrQuaternionf, kJointCount> orient{};
   for (int j = 0; j < kJointCount; ++j) {
     orient[j] = joints[j].pose.orientation;
-    const auto [a, b] = xr::kJointBone[j];
+    const auto [a, b] = kXrFrameBone[j];
     if ((!replaced[a] && !replaced[b]) || bad[a] || bad[b]) continue;
     const Eigen::Vector3d d_raw = raw[b] - raw[a], d_new = fresh[b] - fresh[a];
     if (!d_raw.allFinite() || !d_new.allFinite() || d_raw.norm() < 1e-6 || d_new.norm() < 1e-6 ||

@@ -10,6 +10,7 @@
 #include <openxr/openxr_reflection.h>
 
 #include "handsteady/corrupt.hpp"
+#include "handsteady/skeleton.hpp"
 #include "handsteady/track.hpp"
 #include "handsteady/track_ops.hpp"
 #include "handsteady_xr/loader_negotiation.hpp"
@@ -141,7 +142,7 @@ std::array<Eigen::Matrix3d, kJointCount> joint_frames(const Pose& p, XrHandEXT h
   if (hand == XR_HAND_LEFT_EXT) back = -back;
   for (int j = 0; j < kJointCount; ++j) {
     out[j].setIdentity();
-    const auto [a, b] = xr::kJointBone[j];
+    const auto [a, b] = kXrFrameBone[j];
     const Eigen::Vector3d bone = (p.row(b) - p.row(a)).transpose();
     if (!bone.allFinite() || bone.norm() < 1e-9 || !back.allFinite()) continue;
     const Eigen::Vector3d z = -bone.normalized();
@@ -739,8 +740,7 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
     XrHandJointLocationEXT& loc = out->jointLocations[j];
     loc.pose.position = xr::to_xr(pos[j]);
     loc.pose.orientation = xr::to_xr(Eigen::Quaterniond(rot[j]).normalized());
-    const bool tip = j == 5 || j == 10 || j == 15 || j == 20 || j == 25;
-    loc.radius = tip ? 0.008f : 0.01f;
+    loc.radius = is_tip(j) ? 0.008f : 0.01f;
     loc.locationFlags = XR_SPACE_LOCATION_ORIENTATION_VALID_BIT | XR_SPACE_LOCATION_POSITION_VALID_BIT;
     if (joint_tracked(world, j))
       loc.locationFlags |= XR_SPACE_LOCATION_ORIENTATION_TRACKED_BIT | XR_SPACE_LOCATION_POSITION_TRACKED_BIT;

@@ -1,6 +1,7 @@
 // The layer through the real loader: app -> loader -> [core validation] -> handsteady ->
 // [core validation] -> replay runtime. Each test case runs in its own process (CTest),
 // so each may create its own XrInstance (the 1.0.20 loader allows one at a time).
+#include "handsteady/skeleton.hpp"
 #include "handsteady/track_ops.hpp"
 #include "handsteady_xr/xr_math.hpp"
 #include "test_support.hpp"
@@ -294,7 +295,7 @@ TEST_CASE("denoise: orientations follow the new bone directions; velocities stay
     REQUIRE(j.active == XR_TRUE);
     if (i < 30) continue;
     for (int k = 0; k < kJointCount; ++k) {
-      const auto [a, b] = xr::kJointBone[k];
+      const auto [a, b] = kXrFrameBone[k];
       const Eigen::Vector3d bone = xr::to_eigen(j.loc[b].pose.position) - xr::to_eigen(j.loc[a].pose.position);
       if (bone.norm() < 1e-3) continue;
       // The joint's -Z axis points along its (new) bone, as the runtime's did along its own.

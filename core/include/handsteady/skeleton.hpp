@@ -24,12 +24,46 @@ enum class Joint : int {
 };
 constexpr int idx(Joint j) { return static_cast<int>(j); }
 
+using Edge = std::pair<int, int>;  // (a, b); for bones (parent, child)
+
+// The OpenXR hand's topology, written once: each joint's parent (-1: the wrist, the root;
+// the palm, the thumb's and the fingers' metacarpals hang off it). Everything else about
+// the hand's shape (bones, tips, orientation bones, the graph) is derived from it.
+inline constexpr std::array<int, kJointCount> kXrParent = {
+    1,  -1,                // palm, wrist
+    1,  2,  3,  4,         // thumb: metacarpal, proximal, distal, tip
+    1,  6,  7,  8,  9,     // index: metacarpal, proximal, intermediate, distal, tip
+    1,  11, 12, 13, 14,    // middle
+    1,  16, 17, 18, 19,    // ring
+    1,  21, 22, 23, 24,    // little
+};
+
+// A fingertip: a joint no other joint hangs off.
+constexpr bool is_tip(int j) {
+  if (j < 0 || j >= kJointCount || j == idx(Joint::Palm)) return false;
+  for (int k = 0; k < kJointCount; ++k)
+    if (kXrParent[static_cast<size_t>(k)] == j) return false;
+  return true;
+}
+
+// The bone (from, to) along which joint j's -Z axis points in XR_EXT_hand_tracking:
+// towards the next joint of its finger; tips use the bone that ends at them; the wrist
+// points at the middle metacarpal and the palm at the middle proximal joint.
+inline constexpr std::array<Edge, kJointCount> kXrFrameBone = [] {
+  std::array<Edge, kJointCount> b{};
+  for (int j = 0; j < kJointCount; ++j) {
+    if (j == idx(Joint::Palm)) b[static_cast<size_t>(j)] = {j, idx(Joint::MiddleProximal)};
+    else if (j == idx(Joint::Wrist)) b[static_cast<size_t>(j)] = {j, idx(Joint::MiddleMetacarpal)};
+    else if (is_tip(j)) b[static_cast<size_t>(j)] = {kXrParent[static_cast<size_t>(j)], j};
+    else b[static_cast<size_t>(j)] = {j, j + 1};  // within a finger the child is the next joint
+  }
+  return b;
+}();
+
 // "palm", "wrist", "thumb_metacarpal", ..., "little_tip".
 const std::array<std::string_view, kJointCount>& xr_joint_names();
 // Index of a joint name, or -1.
 int xr_joint_index(std::string_view name);
-
-using Edge = std::pair<int, int>;  // (a, b); for bones (parent, child)
 
 struct Skeleton {
   std::string name;

@@ -1,6 +1,7 @@
 #pragma once
 // Small pose helpers shared by the layer, the replay runtime and the tests:
-// XrPosef <-> Eigen rigid transforms, and the bone each joint's orientation follows.
+// XrPosef <-> Eigen rigid transforms (the bone each joint's orientation follows is
+// hs::kXrFrameBone, handsteady/skeleton.hpp).
 #include <openxr/openxr.h>
 
 #include <Eigen/Geometry>
@@ -42,17 +43,5 @@ inline XrPosef to_xr(const Rigid& r) {
   p.position = to_xr(Eigen::Vector3d(r.translation()));
   return p;
 }
-
-// The bone (from, to) along which joint j's -Z axis points in XR_EXT_hand_tracking:
-// towards the next joint of its finger; tips use the bone that ends at them; the wrist
-// points at the middle metacarpal and the palm at the middle proximal joint.
-inline constexpr std::array<std::pair<int, int>, 26> kJointBone = {{
-    {0, 12}, {1, 11},                                 // palm, wrist
-    {2, 3}, {3, 4}, {4, 5}, {4, 5},                   // thumb
-    {6, 7}, {7, 8}, {8, 9}, {9, 10}, {9, 10},         // index
-    {11, 12}, {12, 13}, {13, 14}, {14, 15}, {14, 15}, // middle
-    {16, 17}, {17, 18}, {18, 19}, {19, 20}, {19, 20}, // ring
-    {21, 22}, {22, 23}, {23, 24}, {24, 25}, {24, 25}, // little
-}};
 
 }  // namespace hs::xr
