@@ -146,7 +146,9 @@ HandSeries corrupt_tracker(const HandSeries& clean, const TrackerCorruption& c, 
   HandSeries out = clean;
   const size_t n = clean.size();
   Rng jitter_rng(sub_seed(seed, 0)), drop_rng(sub_seed(seed, 1)), hand_rng(sub_seed(seed, 2)),
-      jump_rng(sub_seed(seed, 3));
+      jump_rng(sub_seed(seed, 3)), outlier_rng(sub_seed(seed, 4));
+  std::array<int, kJointCount> outlier_rows{};  // rows the joint's outlier still holds
+  std::array<Vec3, kJointCount> outlier_step;
 
   // Whole-hand dropouts: Poisson starts over the series' time span, exponential lengths.
   std::vector<bool> hand_dropped(n, false);
@@ -178,6 +180,13 @@ HandSeries corrupt_tracker(const HandSeries& clean, const TrackerCorruption& c, 
       const bool drop = drop_rng.bernoulli(c.joint_drop_prob);
       const bool jump = jump_rng.bernoulli(c.jump_prob);
       const Vec3 jv(jump_rng.normal(), jump_rng.normal(), jump_rng.normal());
+      const auto ju = static_cast<size_t>(j);
+      if (c.outlier_prob > 0.0 && outlier_rows[ju] == 0 && outlier_rng.bernoulli(c.outlier_prob)) {
+        outlier_step[ju] = outlier_rng.uniform(c.outlier_min_m, c.outlier_max_m) * outlier_rng.unit_vector();
+        outlier_rows[ju] = 1 + std::min(static_cast<int>(outlier_rng.uniform() * c.outlier_max_rows), c.outlier_max_rows - 1);
+      }
+      const bool outlier = outlier_rows[ju] > 0;
+      if (outlier) --outlier_rows[ju];
       if (!joint_tracked(y, j)) continue;
       if (hand_dropped[i] || drop) {
         y.row(j).setConstant(std::numeric_limits<double>::quiet_NaN());
@@ -185,6 +194,7 @@ HandSeries corrupt_tracker(const HandSeries& clean, const TrackerCorruption& c, 
       }
       Vec3 p = joint(y, j) + noise.row(j).transpose();
       if (jump) p += c.jump_sd_m * jv;
+      if (outlier) p += outlier_step[ju];
       if (c.quantize_m > 0.0)
         for (int k = 0; k < 3; ++k) p(k) = std::round(p(k) / c.quantize_m) * c.quantize_m;
       set_joint(y, j, p);
@@ -321,6 +331,10 @@ void validate_corruption(const CorruptionConfig& config) {
       require(prob(t.jump_prob), "jump probability must be in [0, 1]");
       require(finite_nonneg(t.jump_sd_m), "jump SD must be >= 0");
       require(finite_nonneg(t.quantize_m), "quantisation step must be >= 0");
+      require(prob(t.outlier_prob), "outlier probability must be in [0, 1]");
+      require(finite_nonneg(t.outlier_min_m) && t.outlier_max_m >= t.outlier_min_m && std::isfinite(t.outlier_max_m),
+              "outlier sizes must be 0 <= min <= max");
+      require(t.outlier_max_rows >= 1 && t.outlier_max_rows <= 1000, "outlier rows must be 1..1000");
       break;
     }
     case CorruptionKind::Tremor: {

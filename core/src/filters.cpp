@@ -311,17 +311,24 @@ std::string filter_params_summary(const FilterConfig& c) {
   return s + fmt::format("max_gap_ms={}", c.max_gap_s * 1e3);
 }
 
-HandSeries filter_series(PoseFilter& filter, const HandSeries& series, double horizon_s) {
+std::vector<HandSeries> filter_series(PoseFilter& filter, const HandSeries& series, std::span<const double> horizons_s) {
   filter.reset();
-  HandSeries out;
-  out.t = series.t;
-  out.pos.resize(series.size(), untracked_pose());
+  std::vector<HandSeries> out(horizons_s.size());
+  for (HandSeries& o : out) {
+    o.t = series.t;
+    o.pos.resize(series.size(), untracked_pose());
+  }
   for (size_t i = 0; i < series.size(); ++i) {
     const bool accepted = filter.push(series.t[i], series.pos[i]);
     // Untracked rows stay untracked; a rejected timestamp has nothing new to report.
-    if (accepted && any_joint_tracked(series.pos[i])) filter.estimate(series.t[i] + horizon_s, out.pos[i]);
+    if (!accepted || !any_joint_tracked(series.pos[i])) continue;
+    for (size_t h = 0; h < horizons_s.size(); ++h) filter.estimate(series.t[i] + horizons_s[h], out[h].pos[i]);
   }
   return out;
+}
+
+HandSeries filter_series(PoseFilter& filter, const HandSeries& series, double horizon_s) {
+  return std::move(filter_series(filter, series, std::span<const double>(&horizon_s, 1)).front());
 }
 
 }  // namespace hs

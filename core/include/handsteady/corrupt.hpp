@@ -33,6 +33,12 @@ struct TrackerCorruption {
   double jump_prob = 0.0;          // per joint per row: a one-row jump
   double jump_sd_m = 0.0;          // jump size (per coordinate SD)
   double quantize_m = 0.0;         // output rounding (0 = none)
+  // Outliers: per joint per row an outlier starts with outlier_prob: the joint is pushed
+  // by a uniform [outlier_min_m, outlier_max_m] step in a random direction for 1 to
+  // outlier_max_rows rows (uniform). Its own random stream: the fields above draw the same.
+  double outlier_prob = 0.0;
+  double outlier_min_m = 0.010, outlier_max_m = 0.050;
+  int outlier_max_rows = 3;
 };
 
 struct TremorCorruption {

@@ -6,8 +6,10 @@
 #include "handsteady/track.hpp"
 
 #include <memory>
+#include <span>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace hs {
 
@@ -78,5 +80,8 @@ std::string filter_params_summary(const FilterConfig& config);
 // missing joint gets the filter's estimate when it has one (else stays NaN).
 // The filter is reset first.
 HandSeries filter_series(PoseFilter& filter, const HandSeries& series, double horizon_s);
+// The same for several horizons in one pass: one output per horizon, all from the same
+// filter states (row i's answers at t_i + h for each h).
+std::vector<HandSeries> filter_series(PoseFilter& filter, const HandSeries& series, std::span<const double> horizons_s);
 
 }  // namespace hs

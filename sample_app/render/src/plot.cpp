@@ -68,6 +68,42 @@ Range padded(double lo, double hi, double fallback_lo, double fallback_hi, doubl
   return {lo - pad, hi + pad};
 }
 
+struct LegendEntry {
+  std::string label;
+  Color color;
+  float width_px;
+  bool marker;  // a dot instead of a line sample
+};
+
+// Legend rows centred in width W from y: a line (or dot) sample and the label per entry;
+// returns the y below it.
+float draw_legend(Renderer& r, const std::vector<LegendEntry>& entries, float y, float W, float u, const TextStyle& style) {
+  const float sample = 28.0f * u, space = 8.0f * u, between = 26.0f * u, row_h = 24.0f * u;
+  std::vector<float> widths;
+  for (const LegendEntry& e : entries) widths.push_back(sample + space + r.measure_text(e.label, {0.0f, 0.0f}, style).width);
+  size_t i = 0;
+  while (i < entries.size()) {
+    size_t j = i;
+    float row_w = 0.0f;
+    while (j < entries.size() && (j == i || row_w + between + widths[j] <= W - 20.0f * u)) {
+      row_w += (j == i ? 0.0f : between) + widths[j];
+      ++j;
+    }
+    float x = 0.5f * (W - row_w);
+    const float cy = y + 0.5f * row_h;
+    for (size_t k = i; k < j; ++k) {
+      const LegendEntry& e = entries[k];
+      if (e.marker) r.disc2d({x + 0.5f * sample, cy}, std::max(e.width_px, 6.0f) * u, e.color);
+      else r.line2d({x, cy}, {x + sample, cy}, e.color, e.width_px * u);
+      r.text(e.label, {x + sample + space, cy}, style);
+      x += widths[k] + between;
+    }
+    y += row_h;
+    i = j;
+  }
+  return y;
+}
+
 }  // namespace
 
 PlotSeries joint_series(std::string label, Color color, const std::vector<double>& t,
@@ -145,32 +181,10 @@ void draw_trajectory_plot(Renderer& r, const Viewport& vp, const TrajectoryPlot&
     const Box b = r.text(plot.title, {0.5f * W, y}, title_style);
     y = b.y + b.height + 10.0f * u;
   }
-  // Legend: a line sample and the label per series, centred rows.
   {
-    const float sample = 28.0f * u, space = 8.0f * u, between = 26.0f * u, row_h = 24.0f * u;
-    std::vector<float> widths;
-    for (const PlotSeries& s : plot.series) {
-      widths.push_back(sample + space + r.measure_text(s.label, {0.0f, 0.0f}, legend_style).width);
-    }
-    size_t i = 0;
-    while (i < plot.series.size()) {
-      size_t j = i;
-      float row_w = 0.0f;
-      while (j < plot.series.size() && (j == i || row_w + between + widths[j] <= W - 20.0f * u)) {
-        row_w += (j == i ? 0.0f : between) + widths[j];
-        ++j;
-      }
-      float x = 0.5f * (W - row_w);
-      const float cy = y + 0.5f * row_h;
-      for (size_t k = i; k < j; ++k) {
-        const PlotSeries& s = plot.series[k];
-        r.line2d({x, cy}, {x + sample, cy}, s.color, std::max(s.width_px, 2.0f) * u);
-        r.text(s.label, {x + sample + space, cy}, legend_style);
-        x += widths[k] + between;
-      }
-      y += row_h;
-      i = j;
-    }
+    std::vector<LegendEntry> entries;
+    for (const PlotSeries& s : plot.series) entries.push_back({s.label, s.color, std::max(s.width_px, 2.0f), false});
+    y = draw_legend(r, entries, y, W, u, legend_style);
   }
   const float tick_len = 5.0f * u;
   const float left = std::round(8.0f * u + label_style.size_px * 1.6f + 8.0f * u + label_w + tick_len + 4.0f * u);
@@ -267,5 +281,111 @@ Image render_trajectory_plot(const TrajectoryPlot& plot) {
 void write_trajectory_plot(const std::filesystem::path& path, const TrajectoryPlot& plot) {
   write_png(path, render_trajectory_plot(plot));
 }
+
+void draw_xy_plot(Renderer& r, const Viewport& vp, const XyPlot& plot) {
+  for (const XySeries& s : plot.series)
+    if (s.x.size() != s.y.size())
+      throw std::invalid_argument("xy plot series '" + s.label + "': " + std::to_string(s.x.size()) + " x but " +
+                                  std::to_string(s.y.size()) + " y");
+  r.set_viewport(vp);
+  r.clear_viewport(plot.background);
+  const float W = static_cast<float>(vp.width), H = static_cast<float>(vp.height);
+  const float u = std::clamp(std::min(W / 1200.0f, H / 800.0f), 0.35f, 4.0f);
+  const Color ink = Color::rgb8(30, 30, 30), grid = Color::rgb8(225, 225, 225);
+  const TextStyle title_style{22.0f * u, ink, 2.0f * u, Align::Center, VAlign::Top};
+  const TextStyle legend_style{14.0f * u, ink, 1.4f * u, Align::Left, VAlign::Middle};
+  const TextStyle tick_style{12.0f * u, ink, 1.2f * u, Align::Right, VAlign::Middle};
+  const TextStyle label_style{15.0f * u, ink, 1.4f * u, Align::Center, VAlign::Middle, 90.0f};
+
+  double x_lo = kNaN, x_hi = kNaN, y_lo = kNaN, y_hi = kNaN;
+  for (const XySeries& s : plot.series)
+    for (size_t i = 0; i < s.x.size(); ++i) {
+      if (!std::isfinite(s.x[i]) || !std::isfinite(s.y[i])) continue;
+      x_lo = std::isnan(x_lo) ? s.x[i] : std::min(x_lo, s.x[i]);
+      x_hi = std::isnan(x_hi) ? s.x[i] : std::max(x_hi, s.x[i]);
+      y_lo = std::isnan(y_lo) ? s.y[i] : std::min(y_lo, s.y[i]);
+      y_hi = std::isnan(y_hi) ? s.y[i] : std::max(y_hi, s.y[i]);
+    }
+  if (plot.y_from_zero && y_lo > 0.0) y_lo = 0.0;
+  const Range xr = padded(x_lo, x_hi, 0.0, 1.0, 0.05), yr = padded(y_lo, y_hi, 0.0, 1.0, 0.05);
+  const double x_step = nice_step(xr.hi - xr.lo, 8), y_step = nice_step(yr.hi - yr.lo, 6);
+  const std::vector<double> x_ticks = ticks(xr, x_step), y_ticks = ticks(yr, y_step);
+  float label_w = 0.0f;
+  for (const double v : y_ticks) label_w = std::max(label_w, r.measure_text(tick_label(v, y_step), {0.0f, 0.0f}, tick_style).width);
+
+  float y = 12.0f * u;
+  if (!plot.title.empty()) {
+    const Box b = r.text(plot.title, {0.5f * W, y}, title_style);
+    y = b.y + b.height + 10.0f * u;
+  }
+  std::vector<LegendEntry> entries;
+  for (const XySeries& s : plot.series) entries.push_back({s.label, s.color, s.lines ? s.line_px : s.marker_px, !s.lines});
+  y = draw_legend(r, entries, y, W, u, legend_style);
+
+  const float tick_len = 5.0f * u;
+  const float left = std::round(8.0f * u + label_style.size_px * 1.6f + 8.0f * u + label_w + tick_len + 4.0f * u);
+  const float right = std::round(W - 24.0f * u);
+  const float top = std::round(y + 8.0f * u);
+  const float bottom = std::round(H - (12.0f * u + tick_style.size_px + 14.0f * u + label_style.size_px + 10.0f * u));
+  const float pw = std::max(1.0f, right - left), ph = std::max(1.0f, bottom - top);
+  const auto px = [&](double v) { return left + static_cast<float>((v - xr.lo) / (xr.hi - xr.lo)) * pw; };
+  const auto py = [&](double v) { return top + (1.0f - static_cast<float>((v - yr.lo) / (yr.hi - yr.lo))) * ph; };
+  for (const double v : x_ticks) r.line2d({px(v), top}, {px(v), top + ph}, grid, 1.0f * u);
+  for (const double v : y_ticks) r.line2d({left, py(v)}, {left + pw, py(v)}, grid, 1.0f * u);
+  const Viewport clip{vp.x + static_cast<int>(left), vp.y + static_cast<int>(top), static_cast<int>(pw), static_cast<int>(ph)};
+  if (clip.width > 0 && clip.height > 0) {
+    r.set_viewport(clip);
+    for (const XySeries& s : plot.series) {
+      std::vector<glm::vec2> run;
+      const auto flush = [&] {
+        if (s.lines && run.size() > 1) r.polyline2d(run, s.color, s.line_px * u);
+        run.clear();
+      };
+      for (size_t i = 0; i < s.x.size(); ++i) {
+        if (!std::isfinite(s.x[i]) || !std::isfinite(s.y[i])) {
+          flush();
+          continue;
+        }
+        const glm::vec2 p{px(s.x[i]) - left, py(s.y[i]) - top};
+        run.push_back(p);
+        if (s.marker_px > 0.0f) r.disc2d(p, s.marker_px * u, s.color);
+      }
+      flush();
+    }
+    r.set_viewport(vp);
+  }
+  r.stroke_rect(left, top, pw, ph, ink, 1.5f * u);
+  for (const double v : y_ticks) {
+    r.line2d({left - tick_len, py(v)}, {left, py(v)}, ink, 1.2f * u);
+    r.text(tick_label(v, y_step), {left - tick_len - 4.0f * u, py(v)}, tick_style);
+  }
+  TextStyle xt = tick_style;
+  xt.align = Align::Center;
+  xt.valign = VAlign::Top;
+  for (const double v : x_ticks) {
+    r.line2d({px(v), top + ph}, {px(v), top + ph + tick_len}, ink, 1.2f * u);
+    r.text(tick_label(v, x_step), {px(v), top + ph + tick_len + 6.0f * u}, xt);
+  }
+  r.text(plot.y_label, {8.0f * u + 0.8f * label_style.size_px, top + 0.5f * ph}, label_style);
+  TextStyle xs = label_style;
+  xs.angle_deg = 0.0f;
+  xs.valign = VAlign::Top;
+  r.text(plot.x_label, {left + 0.5f * pw, top + ph + tick_len + 6.0f * u + xt.size_px + 12.0f * u}, xs);
+}
+
+Image render_xy_plot(const XyPlot& plot) {
+  if (plot.width <= 0 || plot.height <= 0) throw std::invalid_argument("xy plot: width and height must be positive");
+  auto ctx = create_offscreen_context(plot.width, plot.height);
+  Image img;
+  {
+    Renderer r(*ctx);
+    r.begin_frame(plot.background);
+    draw_xy_plot(r, r.full_frame(), plot);
+    img = r.read_pixels();
+  }
+  return img;
+}
+
+void write_xy_plot(const std::filesystem::path& path, const XyPlot& plot) { write_png(path, render_xy_plot(plot)); }
 
 }  // namespace hs::render

@@ -51,4 +51,28 @@ Image render_trajectory_plot(const TrajectoryPlot& plot);
 // render_trajectory_plot + write_png.
 void write_trajectory_plot(const std::filesystem::path& path, const TrajectoryPlot& plot);
 
+// Points and lines of y against x with axes, ticks, a legend and a title (the benchmark's
+// jitter-against-lag plots). Non-finite pairs are left out (and break a line).
+struct XySeries {
+  std::string label;
+  Color color;
+  std::vector<double> x, y;
+  bool lines = false;      // connect consecutive points
+  float line_px = 2.0f;
+  float marker_px = 7.0f;  // dot diameter; 0: none
+};
+
+struct XyPlot {
+  std::string title, x_label, y_label;
+  std::vector<XySeries> series;  // drawn in order, listed in the legend
+  bool y_from_zero = true;
+  int width = 1200, height = 800;
+  Color background = Color::rgb8(255, 255, 255);
+};
+
+// Throws std::invalid_argument when a series' x and y differ in size.
+void draw_xy_plot(Renderer& renderer, const Viewport& vp, const XyPlot& plot);
+Image render_xy_plot(const XyPlot& plot);
+void write_xy_plot(const std::filesystem::path& path, const XyPlot& plot);
+
 }  // namespace hs::render

@@ -1,0 +1,119 @@
+// handsteady benchmark: the project's quality benchmark (docs/BENCHMARK.md). Scores the
+// classical filters and any number of models on a fixed, seeded grid and writes
+// benchmark.md, benchmark.json and curve.csv to --out.
+#include "commands.hpp"
+
+#include "handsteady/benchmark.hpp"
+#include "handsteady/error.hpp"
+#include "handsteady/model_path.hpp"
+#include "handsteady/stgae_engine.hpp"
+#include "handsteady/stgae_model.hpp"
+#ifdef HS_HAVE_HANDWRITING
+#include "handsteady/handwriting.hpp"
+#endif
+
+#include <fmt/format.h>
+
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace hs::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct BenchmarkOptions {
+  std::string data = "../shared/data";
+  std::string out;
+  std::vector<std::string> models;  // LABEL=FILE.hsm
+  bool no_default_model = false;
+  bench::Options run;
+};
+
+void write_text(const fs::path& path, const std::string& text) {
+  std::ofstream f(path);
+  f << text;
+  if (!f) throw InputError({path.string(), 0, "--out"}, "cannot write");
+}
+
+void run_benchmark(const BenchmarkOptions& o, const std::string& command) {
+  if (!fs::is_directory(o.data)) throw InputError({o.data, 0, "--data"}, "not a folder (the shared recordings)");
+  bench::Report report;
+  report.command = command;
+  auto sets = bench::load_datasets(o.data, o.run.quick, report.notes);
+#ifdef HS_HAVE_HANDWRITING
+  try {  // synthetic handwriting: truth by construction, writing motion at 60 Hz
+    HandwritingParams p;
+    p.text = o.run.quick ? "Steady" : "Steady hands write";
+    p.noise = TrackerNoise::None;
+    p.tremor = TremorKind::None;
+    bench::Dataset d;
+    d.name = "synth-handwriting";
+    d.clean = synth_handwriting(p).clean;
+    d.rate_hz = 90.0;
+    d.source = fmt::format("synth-handwriting \"{}\" (60 Hz, clean)", p.text);
+    sets.push_back(std::move(d));
+  } catch (const std::exception& e) {
+    report.notes.push_back(std::string("synth-handwriting skipped: ") + e.what());
+  }
+#else
+  report.notes.push_back("synth-handwriting skipped: built without libhersheyfont-dev");
+#endif
+  std::vector<std::pair<std::string, fs::path>> model_files;
+  for (const auto& spec : o.models) {
+    const auto eq = spec.find('=');
+    if (eq == std::string::npos || eq == 0) throw InputError({"", 0, "--model"}, "expects LABEL=FILE.hsm, got '" + spec + "'");
+    model_files.emplace_back(spec.substr(0, eq), spec.substr(eq + 1));
+  }
+  if (!o.no_default_model) {
+    const auto lookup = lookup_default_model({installed_models_dir_for_executable()});
+    if (!lookup.found.empty()) model_files.emplace_back("multistgae", lookup.found);
+    else report.notes.push_back("no shipped model found (" + lookup.describe_tried() + ")");
+  }
+  bench::tune_oneeuro(sets, o.run, report);
+  auto methods = bench::classical_methods(report.tuned);
+  for (const auto& [label, file] : model_files) {
+    std::shared_ptr<const StgaeModel> model = load_hsm(file);  // InputError naming the file
+    if (model->config.padding != StgaePadding::Causal)
+      throw InputError({file.string(), 0, "--model"}, "a centred model cannot stream; the benchmark runs causally");
+    methods.push_back({label, [model](const std::string&) { return make_stgae_filter(model, 0.0, 0); }, true});
+    report.notes.push_back(fmt::format("model {} = {}", label, file.string()));
+  }
+  bench::run_grid(sets, methods, o.run, report);
+  fs::create_directories(o.out);
+  write_text(fs::path(o.out) / "benchmark.md", bench::report_markdown(report, o.run));
+  write_text(fs::path(o.out) / "benchmark.json", bench::report_json(report, o.run));
+  write_text(fs::path(o.out) / "curve.csv", bench::curve_csv(report));
+  fmt::print("{} results in {:.0f} s: {}/benchmark.md, benchmark.json, curve.csv\n", report.results.size(), report.seconds,
+             o.out);
+}
+
+void setup_benchmark(CLI::App& app) {
+  auto o = std::make_shared<BenchmarkOptions>();
+  auto* sub = app.add_subcommand("benchmark", "Score filters and models on the project's fixed, seeded grid (docs/BENCHMARK.md)");
+  sub->add_option("--data", o->data, "The shared recordings folder")->capture_default_str();
+  sub->add_option("--out", o->out, "Folder for benchmark.md, benchmark.json, curve.csv")->required();
+  sub->add_option("--model", o->models, "LABEL=FILE.hsm, a causal model to score (repeatable)");
+  sub->add_flag("--no-default-model", o->no_default_model, "Do not add the shipped model (label multistgae)");
+  sub->add_flag("--quick", o->run.quick, "The CI subset: ~20 s of each set, one strength per family");
+  sub->add_option("--threads", o->run.threads, "Worker threads")->capture_default_str()->check(CLI::Range(1, 64));
+  sub->add_option("--seed", o->run.seed, "Seed of every corruption and timing jitter")->capture_default_str();
+  sub->callback([o, sub] {
+    std::string command = "handsteady benchmark";
+    for (const auto& a : sub->get_options())
+      if (a->count() > 0 && a->get_name() != "--help") {
+        command += " " + a->get_name();
+        if (a->get_expected_min() > 0)
+          for (const auto& v : a->results()) command += " " + v;
+      }
+    run_benchmark(*o, command);
+  });
+}
+
+const CommandRegistration reg(&setup_benchmark);
+
+}  // namespace
+}  // namespace hs::cli

@@ -1,0 +1,150 @@
+#pragma once
+// The project's quality benchmark (docs/BENCHMARK.md): a fixed, seeded grid of
+// recordings x noise families x input rates x hand shapes. Every method runs causally
+// over every cell (one pass, answers at t, t + 20 ms and t + 50 ms) and is scored with
+// metrics.hpp against the clean recording. Recordings without truth (HoloLens 2) are
+// scored against themselves: jitter, lag behind the raw input, prediction of the
+// observed future. One Euro is tuned per noise cell on the declared tuning split only.
+#include "handsteady/corrupt.hpp"
+#include "handsteady/filters.hpp"
+#include "handsteady/metrics.hpp"
+#include "handsteady/track.hpp"
+
+#include <array>
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace hs::bench {
+
+inline constexpr std::array<double, 3> kHorizonsS = {0.0, 0.020, 0.050};
+
+enum class Split { Tuning, Test };
+
+struct Dataset {
+  std::string name;        // "fpha-s5", "manipnet", "leap-gestures", ...
+  Split split = Split::Test;
+  Track clean;             // the truth; for a set without truth, the recording itself
+  bool has_truth = true;
+  double rate_hz = 90.0;   // input rate of the main grid (resampled, irregular times)
+  bool wide = false;       // also run the rate, hand-shape and still-hand blocks on it
+  std::string source;      // where it came from (for the report)
+};
+
+// The benchmark's recordings under data_dir (../shared/data): FPHA subject 5, ManipNet,
+// held-out Leap gestures and handwriting, the HoloLens 2 recordings, plus every track CSV
+// under data_dir/benchmark/ (added later: test split, truth assumed). The tuning split is
+// ManipNet cup1 and Leap guinevere subject 03. A set whose files are missing is skipped
+// with a note. quick: the first ~20 s of each set.
+std::vector<Dataset> load_datasets(const std::filesystem::path& data_dir, bool quick, std::vector<std::string>& notes);
+
+// One noise condition: corruption steps applied in order to the resampled truth.
+struct NoiseCell {
+  std::string family;    // "white", "correlated", "tremor-4-6hz", ...
+  std::string strength;  // "1.5mm", "p=0.02", ...
+  double level_mm = 0;   // jitter/tremor amplitude (0 where the family has none)
+  std::function<std::vector<CorruptionConfig>(double rate_hz)> steps;
+  std::string key() const { return family + " " + strength; }
+};
+std::vector<NoiseCell> noise_grid(bool quick);
+
+// Hand proportions and joint placements of other runtimes, applied to the truth.
+enum class ShapeKind { Standard, Scale, BoneJitter, WristProximal, PalmCentroid, ThumbBase };
+struct ShapeVariant {
+  std::string name;
+  ShapeKind kind = ShapeKind::Standard;
+  double amount = 0.0;  // Scale: factor; BoneJitter: +- ratio; WristProximal: metres
+};
+std::vector<ShapeVariant> shape_variants(bool quick);
+HandSeries apply_shape(const HandSeries& series, const ShapeVariant& shape, uint64_t seed);
+
+// The rows a tracker at rate_hz would give: times k / rate +- 20 % of a period (seeded),
+// the truth interpolated there.
+HandSeries resample_irregular(const HandSeries& series, double rate_hz, uint64_t seed);
+
+// A method under test: a fresh filter per hand and cell. tuned_key is the NoiseCell key
+// of the cell (a method tuned per noise cell looks its parameters up by it).
+struct Method {
+  std::string name;
+  std::function<std::unique_ptr<PoseFilter>(const std::string& tuned_key)> make;
+  bool is_model = false;
+};
+
+struct Options {
+  bool quick = false;
+  int threads = 2;
+  uint64_t seed = 1;
+};
+
+struct Cell {
+  std::string block;    // "noise", "rate", "shape", "recorded"
+  std::string dataset, family, strength, shape;
+  double rate_hz = 0;
+  double level_mm = 0;
+  std::string key() const;  // one line naming every coordinate
+};
+
+struct Result {
+  Cell cell;
+  std::string method;
+  std::array<Metrics, kHorizonsS.size()> at;  // per horizon
+};
+
+// One Euro parameters tried by the tuning sweep, and their score.
+struct SweepPoint {
+  std::string cell;  // NoiseCell key, on the tuning split (mean over its sets) or a test cell
+  OneEuroParams params;
+  double mpjpe_mm = 0, jitter_mm = 0, lag_ms = 0;
+};
+
+// A still hand (one pose of a test set held for 3 s, tracking starting at its first row,
+// lost for 0.5 s after 2 s and back): the largest joint distance from the pose over the
+// first 0.3 s after each start, and after 1 s.
+struct StillResult {
+  std::string dataset, shape, method;
+  double start_mm = 0, resume_mm = 0, drift_mm = 0;
+};
+
+struct SetInfo {
+  std::string name, split, source;
+  size_t rows = 0;
+  double rate_hz = 0;
+  bool truth = true;
+};
+
+struct Report {
+  std::vector<SetInfo> sets;
+  std::vector<Result> results;
+  std::vector<SweepPoint> tuning;      // every sweep point on the tuning split
+  std::vector<SweepPoint> curve;       // the sweep on the test curve cell (jitter-lag curve)
+  std::string curve_cell;              // its Cell::key()
+  std::string curve_label;             // "<set>, <noise>"
+  std::vector<std::pair<std::string, OneEuroParams>> tuned;  // per noise cell key
+  std::vector<StillResult> still;
+  std::vector<std::string> notes;
+  std::vector<std::string> methods;  // in the order given
+  std::vector<std::string> models;   // those that are learnt models (the criteria are checked for them)
+  std::string command;               // how the report was made (for its header)
+  double seconds = 0;
+};
+
+// The standard methods: raw, oneeuro (defaults), oneeuro-tuned (looked up in tuned),
+// desp, kalman (constant velocity). tuned must outlive the methods.
+std::vector<Method> classical_methods(const std::vector<std::pair<std::string, OneEuroParams>>& tuned);
+
+// Tunes One Euro per noise cell on the tuning sets (minimum mean MPJPE at H = 0).
+void tune_oneeuro(const std::vector<Dataset>& datasets, const Options& options, Report& report);
+
+// Runs every method over the grid (report.tuned must be set: tune_oneeuro first).
+void run_grid(const std::vector<Dataset>& datasets, const std::vector<Method>& methods, const Options& options,
+              Report& report);
+
+// The whole report as markdown (tables per block, the criteria checked) and JSON.
+std::string report_markdown(const Report& report, const Options& options);
+std::string report_json(const Report& report, const Options& options);
+// One Euro's jitter-lag curve and every method as a point, as CSV (method,mpjpe,jitter,lag).
+std::string curve_csv(const Report& report);
+
+}  // namespace hs::bench

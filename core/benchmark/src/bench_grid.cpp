@@ -1,0 +1,650 @@
+// The benchmark's grid: recordings, noise cells, hand shapes, irregular resampling, and
+// the runner (docs/BENCHMARK.md).
+#include "handsteady/benchmark.hpp"
+
+#include "handsteady/import.hpp"
+#include "handsteady/track_ops.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <map>
+#include <mutex>
+#include <random>
+#include <thread>
+
+namespace hs::bench {
+namespace {
+
+namespace fs = std::filesystem;
+
+// FNV-1a: a seed per cell that does not depend on the standard library's hashes.
+uint64_t seed_of(uint64_t seed, const std::string& text) {
+  uint64_t h = 0xcbf29ce484222325ull ^ seed;
+  for (const unsigned char c : text) h = (h ^ c) * 0x100000001b3ull;
+  return h;
+}
+
+// Rows of each hand within the first seconds of that hand.
+Track first_seconds(const Track& track, double seconds) {
+  Track out;
+  out.header_lines = track.header_lines;
+  for (const Hand h : {Hand::Left, Hand::Right}) {
+    HandSeries s = hand_series(track, h);
+    if (s.empty()) continue;
+    const double end = s.t.front() + seconds;
+    size_t n = 0;
+    while (n < s.size() && s.t[n] < end) ++n;
+    s.t.resize(n);
+    s.pos.resize(n);
+    add_hand_series(out, h, s);
+  }
+  return out;
+}
+
+// Both hands of two one-hand tracks in one track.
+Track merge_hands(const Track& a, const Track& b) {
+  Track out = a;
+  out.rows.clear();
+  for (const Track* t : {&a, &b})
+    for (const Hand h : {Hand::Left, Hand::Right}) {
+      const HandSeries s = hand_series(*t, h);
+      if (!s.empty()) add_hand_series(out, h, s);
+    }
+  return out;
+}
+
+// Track CSVs of a folder whose file names pass keep(), sorted, concatenated as takes.
+Track csv_takes(const fs::path& dir, const std::function<bool(const std::string&)>& keep) {
+  std::vector<fs::path> files;
+  for (const auto& e : fs::directory_iterator(dir))
+    if (e.is_regular_file() && e.path().extension() == ".csv" && keep(e.path().filename().string()))
+      files.push_back(e.path());
+  std::sort(files.begin(), files.end());
+  if (files.empty()) throw InputError({dir.string(), 0, ""}, "no track CSV selected in this folder");
+  std::vector<Track> takes;
+  std::vector<std::string> names;
+  for (const auto& f : files) {
+    takes.push_back(read_track_csv(f));
+    names.push_back(f.filename().string());
+  }
+  return concatenate_takes(takes, names);
+}
+
+bool starts_with(const std::string& s, std::string_view p) { return s.rfind(p, 0) == 0; }
+bool ends_with(const std::string& s, std::string_view p) {
+  return s.size() >= p.size() && s.compare(s.size() - p.size(), p.size(), p) == 0;
+}
+
+CorruptionConfig tracker(const TrackerCorruption& t) {
+  CorruptionConfig c;
+  c.kind = CorruptionKind::Tracker;
+  c.tracker = t;
+  return c;
+}
+CorruptionConfig jitter(double sd_m, double ar1 = 0.0) {
+  TrackerCorruption t;
+  t.jitter_sd_m = sd_m;
+  t.jitter_ar1 = ar1;
+  return tracker(t);
+}
+CorruptionConfig tremor(double fmin, double fmax, double amplitude_m) {
+  CorruptionConfig c;
+  c.kind = CorruptionKind::Tremor;
+  c.tremor.freq_min_hz = fmin;
+  c.tremor.freq_max_hz = fmax;
+  c.tremor.hand_amplitude_m = amplitude_m;
+  c.tremor.finger_amplitude_m = 0.5 * amplitude_m;
+  return c;
+}
+// Correlated jitter: AR(1) with a 80 ms time constant whatever the rate.
+double ar1_at(double rate_hz) { return std::exp(-1.0 / (rate_hz * 0.080)); }
+
+Eigen::Vector3d row3(const Pose& p, int j) { return p.row(j).transpose(); }
+
+}  // namespace
+
+std::string Cell::key() const {
+  return fmt::format("{} | {} | {} {} | {} | {:g} Hz", block, dataset, family, strength, shape, rate_hz);
+}
+
+std::vector<Dataset> load_datasets(const fs::path& data_dir, bool quick, std::vector<std::string>& notes) {
+  std::vector<Dataset> out;
+  const auto add = [&](const std::string& name, Split split, bool truth, double rate, const std::string& source,
+                       const std::function<Track()>& load, bool wide = false) {
+    try {
+      Dataset d;
+      d.name = name;
+      d.split = split;
+      d.has_truth = truth;
+      d.rate_hz = rate;
+      d.source = source;
+      d.wide = wide;
+      d.clean = load();
+      if (quick) d.clean = first_seconds(d.clean, 20.0);
+      out.push_back(std::move(d));
+    } catch (const std::exception& e) {
+      notes.push_back(fmt::format("{} skipped: {}", name, e.what()));
+    }
+  };
+  const fs::path leap = data_dir / "leap";
+  const fs::path manip = data_dir / "manipnet";
+  // Tuning split (One Euro's parameters; model selection).
+  add("manipnet-cup1", Split::Tuning, true, 90.0, "manipnet/cup1_{left,right}Hand.bvh", [&] {
+    return merge_hands(import_bvh(manip / "cup1_leftHand.bvh"), import_bvh(manip / "cup1_rightHand.bvh"));
+  });
+  add("leap-guinevere-s03", Split::Tuning, true, 90.0, "leap/guinevere/s03_*",
+      [&] { return csv_takes(leap / "guinevere", [](const std::string& f) { return starts_with(f, "s03_"); }); });
+  // Test split.
+  add("fpha-s5", Split::Test, true, 30.0, "fpha/Subject_5", [&] { return import_fpha(data_dir / "fpha" / "Subject_5"); },
+      true);
+  add("manipnet-mug3", Split::Test, true, 90.0, "manipnet/mug3_{left,right}Hand.bvh", [&] {
+    return merge_hands(import_bvh(manip / "mug3_leftHand.bvh"), import_bvh(manip / "mug3_rightHand.bvh"));
+  });
+  add("leap-gestures-s04", Split::Test, true, 90.0, "leap/guinevere/s04_*",
+      [&] { return csv_takes(leap / "guinevere", [](const std::string& f) { return starts_with(f, "s04_"); }); }, true);
+  add("leap-handwriting", Split::Test, true, 90.0, "leap/fmkit_handwriting/*_10, fmcode, fmhash", [&] {
+    return csv_takes(leap / "fmkit_handwriting", [](const std::string& f) {
+      return ends_with(f, "_10.csv") || starts_with(f, "fmcode") || starts_with(f, "fmhash");
+    });
+  });
+  add("hololens2", Split::Test, false, 0.0, "hololens2/*.csv", [&] {
+    std::vector<Track> takes;
+    std::vector<std::string> names;
+    std::vector<fs::path> files;
+    for (const auto& e : fs::directory_iterator(data_dir / "hololens2"))
+      if (e.path().extension() == ".csv") files.push_back(e.path());
+    std::sort(files.begin(), files.end());
+    for (const auto& f : files) {
+      takes.push_back(import_mrtk(f));
+      names.push_back(f.filename().string());
+    }
+    if (takes.empty()) throw InputError({(data_dir / "hololens2").string(), 0, ""}, "no recording");
+    return concatenate_takes(takes, names);
+  });
+  // Data added later: every track CSV under benchmark/, one test set each.
+  const fs::path extra = data_dir / "benchmark";
+  if (fs::is_directory(extra)) {
+    std::vector<fs::path> files;
+    for (const auto& e : fs::directory_iterator(extra))
+      if (e.path().extension() == ".csv") files.push_back(e.path());
+    std::sort(files.begin(), files.end());
+    for (const auto& f : files)
+      add("extra-" + f.stem().string(), Split::Test, true, 90.0, "benchmark/" + f.filename().string(),
+          [f] { return read_track_csv(f); });
+  }
+  return out;
+}
+
+std::vector<NoiseCell> noise_grid(bool quick) {
+  std::vector<NoiseCell> g;
+  const auto mm = [](double v) { return fmt::format("{:g}mm", v); };
+  const std::vector<double> levels = quick ? std::vector<double>{1.5} : std::vector<double>{0.5, 1.5, 3.0, 5.0};
+  for (const double a : levels)
+    g.push_back({"white", mm(a), a, [a](double) { return std::vector{jitter(a * 1e-3)}; }});
+  for (const double a : levels)
+    g.push_back({"correlated", mm(a), a, [a](double r) { return std::vector{jitter(a * 1e-3, ar1_at(r))}; }});
+  for (const double a : levels)
+    g.push_back({"tremor-4-6hz", mm(a), a, [a](double) { return std::vector{tremor(4.0, 6.0, a * 1e-3)}; }});
+  for (const double a : quick ? std::vector<double>{1.5} : std::vector<double>{0.5, 1.5, 3.0})
+    g.push_back({"tremor-8-12hz", mm(a), a, [a](double) { return std::vector{tremor(8.0, 12.0, a * 1e-3)}; }});
+  for (const double p : quick ? std::vector<double>{0.02} : std::vector<double>{0.005, 0.02}) {
+    g.push_back({"outliers", fmt::format("p={:g}", p), 0.5, [p](double) {
+                   TrackerCorruption t;
+                   t.jitter_sd_m = 0.0005;
+                   t.outlier_prob = p;
+                   return std::vector{tracker(t)};
+                 }});
+  }
+  for (const double d : quick ? std::vector<double>{0.1} : std::vector<double>{0.05, 0.2}) {
+    g.push_back({"missing", fmt::format("joints={:g}", d), 0.5, [d](double) {
+                   TrackerCorruption t;
+                   t.jitter_sd_m = 0.0005;
+                   t.joint_drop_prob = d;
+                   t.hand_drop_rate_hz = 4.0 * d;  // 0.2 or 0.8 dropouts per second
+                   t.hand_drop_mean_s = 0.3;
+                   return std::vector{tracker(t)};
+                 }});
+  }
+  for (const double q : quick ? std::vector<double>{2.0} : std::vector<double>{1.0, 4.0}) {
+    g.push_back({"quantised", mm(q), 0.0, [q](double) {
+                   TrackerCorruption t;
+                   t.quantize_m = q * 1e-3;
+                   return std::vector{tracker(t)};
+                 }});
+  }
+  const std::vector<std::string> presets =
+      quick ? std::vector<std::string>{"tracker"} : std::vector<std::string>{"tracker", "paper", "tremor", "tremor-physiological"};
+  for (const auto& p : presets) g.push_back({"preset", p, 0.0, [p](double) { return std::vector{corruption_preset(p)}; }});
+  return g;
+}
+
+std::vector<ShapeVariant> shape_variants(bool quick) {
+  if (quick) return {{"standard"}, {"bones x0.8", ShapeKind::Scale, 0.8}, {"wrist +2cm", ShapeKind::WristProximal, 0.02}};
+  return {{"standard"},
+          {"bones x0.8", ShapeKind::Scale, 0.8},
+          {"bones x1.2", ShapeKind::Scale, 1.2},
+          {"bones +-20%", ShapeKind::BoneJitter, 0.2},
+          {"wrist +2cm", ShapeKind::WristProximal, 0.02},
+          {"palm centroid", ShapeKind::PalmCentroid, 0.0},
+          {"thumb base", ShapeKind::ThumbBase, 0.3}};
+}
+
+HandSeries apply_shape(const HandSeries& series, const ShapeVariant& shape, uint64_t seed) {
+  if (shape.kind == ShapeKind::Standard) return series;
+  HandSeries out = series;
+  std::array<double, kJointCount> factor;
+  factor.fill(shape.kind == ShapeKind::Scale ? shape.amount : 1.0);
+  if (shape.kind == ShapeKind::BoneJitter) {
+    std::mt19937_64 rng(seed);
+    for (double& f : factor) f = 1.0 + shape.amount * (2.0 * static_cast<double>(rng() >> 11) * 0x1.0p-53 - 1.0);
+  }
+  const int wrist = idx(Joint::Wrist);
+  for (Pose& p : out.pos) {
+    const Pose in = p;
+    switch (shape.kind) {
+      case ShapeKind::Scale:
+      case ShapeKind::BoneJitter: {
+        // Rebuild from the wrist outwards with each bone (parent -> joint) scaled; a joint
+        // whose parent is missing moves with its nearest tracked ancestor.
+        std::array<Eigen::Vector3d, kJointCount> moved;
+        moved.fill(Eigen::Vector3d::Zero());
+        std::array<int, kJointCount> order{};
+        order[0] = wrist;
+        for (int j = 0, k = 1; j < kJointCount; ++j)
+          if (j != wrist) order[static_cast<size_t>(k++)] = j;  // parents come first (palm's is the wrist)
+        for (const int j : order) {
+          const int par = kXrParent[static_cast<size_t>(j)];
+          if (par < 0 || !joint_tracked(in, j)) continue;
+          if (!joint_tracked(in, par)) {
+            moved[static_cast<size_t>(j)] = moved[static_cast<size_t>(par)];
+            continue;
+          }
+          const Eigen::Vector3d bone = row3(in, j) - row3(in, par);
+          const Eigen::Vector3d np = row3(in, par) + moved[static_cast<size_t>(par)] + factor[static_cast<size_t>(j)] * bone;
+          moved[static_cast<size_t>(j)] = np - row3(in, j);
+        }
+        for (int j = 0; j < kJointCount; ++j)
+          if (joint_tracked(in, j)) p.row(j) += moved[static_cast<size_t>(j)].transpose();
+        break;
+      }
+      case ShapeKind::WristProximal: {
+        const int mm = idx(Joint::MiddleMetacarpal);
+        if (!joint_tracked(in, wrist) || !joint_tracked(in, mm)) break;
+        const Eigen::Vector3d away = row3(in, wrist) - row3(in, mm);
+        if (away.norm() > 1e-6) p.row(wrist) += (shape.amount * away.normalized()).transpose();
+        break;
+      }
+      case ShapeKind::PalmCentroid: {
+        Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+        int n = 0;
+        for (const Joint j : {Joint::IndexMetacarpal, Joint::MiddleMetacarpal, Joint::RingMetacarpal, Joint::LittleMetacarpal,
+                              Joint::IndexProximal, Joint::MiddleProximal, Joint::RingProximal, Joint::LittleProximal})
+          if (joint_tracked(in, idx(j))) {
+            sum += row3(in, idx(j));
+            ++n;
+          }
+        if (n == 8 && joint_tracked(in, idx(Joint::Palm))) p.row(idx(Joint::Palm)) = (sum / n).transpose();
+        break;
+      }
+      case ShapeKind::ThumbBase: {
+        const int tm = idx(Joint::ThumbMetacarpal);
+        if (joint_tracked(in, tm) && joint_tracked(in, wrist))
+          p.row(tm) = in.row(tm) + shape.amount * (in.row(wrist) - in.row(tm));
+        break;
+      }
+      case ShapeKind::Standard: break;
+    }
+  }
+  return out;
+}
+
+HandSeries resample_irregular(const HandSeries& series, double rate_hz, uint64_t seed) {
+  HandSeries out;
+  if (series.empty() || !(rate_hz > 0.0)) return out;
+  std::mt19937_64 rng(seed);
+  const double t0 = series.t.front(), t1 = series.t.back(), period = 1.0 / rate_hz;
+  double last = -std::numeric_limits<double>::infinity();
+  for (long k = 0;; ++k) {
+    const double u = 0.4 * (static_cast<double>(rng() >> 11) * 0x1.0p-53) - 0.2;
+    const double t = t0 + (static_cast<double>(k) + u) * period;
+    if (t > t1) break;
+    if (t < t0 || t <= last) continue;
+    out.t.push_back(t);
+    out.pos.push_back(interpolate_pose(series, t));
+    last = t;
+  }
+  return out;
+}
+
+std::vector<Method> classical_methods(const std::vector<std::pair<std::string, OneEuroParams>>& tuned) {
+  const auto plain = [](FilterMethod m) {
+    return [m](const std::string&) {
+      FilterConfig c;
+      c.method = m;
+      return make_filter(c);
+    };
+  };
+  std::vector<Method> out;
+  out.push_back({"raw", plain(FilterMethod::Raw)});
+  out.push_back({"oneeuro", plain(FilterMethod::OneEuro)});
+  out.push_back({"oneeuro-tuned", [&tuned](const std::string& key) {
+                   FilterConfig c;
+                   c.method = FilterMethod::OneEuro;
+                   for (const auto& [k, p] : tuned)
+                     if (k == key) c.oneeuro = p;
+                   return make_filter(c);
+                 }});
+  out.push_back({"desp", plain(FilterMethod::Desp)});
+  out.push_back({"kalman", plain(FilterMethod::Kalman)});
+  return out;
+}
+
+namespace {
+
+// A prepared input: what the method sees per hand, and the truth it is scored against.
+struct Prepared {
+  Cell cell;
+  std::string tuned_key;
+  std::array<HandSeries, 2> input;
+  std::shared_ptr<const Track> truth;
+};
+
+Track to_track(const std::array<HandSeries, 2>& hands) {
+  Track t;
+  for (const Hand h : {Hand::Left, Hand::Right})
+    if (!hands[static_cast<size_t>(h)].empty()) add_hand_series(t, h, hands[static_cast<size_t>(h)]);
+  return t;
+}
+
+// Shape -> irregular rate -> corruption, per hand, seeded by the cell.
+Prepared prepare(const Dataset& d, const Cell& cell, const NoiseCell* noise, const ShapeVariant& shape, uint64_t seed,
+                 std::shared_ptr<const Track>& shaped_cache) {
+  Prepared p;
+  p.cell = cell;
+  p.tuned_key = noise ? noise->key() : std::string();
+  const uint64_t s = seed_of(seed, cell.key());
+  if (!d.has_truth) {  // recorded as is; scored against itself
+    for (const Hand h : {Hand::Left, Hand::Right}) p.input[static_cast<size_t>(h)] = hand_series(d.clean, h);
+    p.truth = std::make_shared<const Track>(d.clean);
+    return p;
+  }
+  std::array<HandSeries, 2> shaped;
+  for (const Hand h : {Hand::Left, Hand::Right})
+    shaped[static_cast<size_t>(h)] = apply_shape(hand_series(d.clean, h), shape, seed_of(seed, d.name + shape.name));
+  if (!shaped_cache) shaped_cache = std::make_shared<const Track>(to_track(shaped));
+  p.truth = shaped_cache;
+  for (const Hand h : {Hand::Left, Hand::Right}) {
+    const auto hi = static_cast<size_t>(h);
+    HandSeries in = resample_irregular(shaped[hi], cell.rate_hz, s + 17 * static_cast<uint64_t>(h));
+    if (noise) {
+      uint64_t k = 0;
+      for (const CorruptionConfig& c : noise->steps(cell.rate_hz)) in = corrupt_series(in, c, s + 1000 * ++k + static_cast<uint64_t>(h));
+    }
+    p.input[hi] = std::move(in);
+  }
+  return p;
+}
+
+Result score(const Prepared& p, const Method& m) {
+  Result r;
+  r.cell = p.cell;
+  r.method = m.name;
+  std::array<std::array<HandSeries, 2>, kHorizonsS.size()> est;
+  for (const Hand h : {Hand::Left, Hand::Right}) {
+    const auto hi = static_cast<size_t>(h);
+    if (p.input[hi].empty()) continue;
+    auto f = m.make(p.tuned_key);
+    auto outs = filter_series(*f, p.input[hi], std::span<const double>(kHorizonsS));
+    for (size_t k = 0; k < kHorizonsS.size(); ++k) est[k][hi] = std::move(outs[k]);
+  }
+  for (size_t k = 0; k < kHorizonsS.size(); ++k) r.at[k] = evaluate_tracks(*p.truth, to_track(est[k]), kHorizonsS[k]);
+  return r;
+}
+
+// Runs jobs 0..n-1 on `threads` threads (job i by whichever thread takes it first).
+void parallel_for(size_t n, int threads, const std::function<void(size_t)>& job) {
+  std::atomic<size_t> next{0};
+  std::exception_ptr error;
+  std::mutex mu;
+  const auto worker = [&] {
+    for (size_t i; (i = next++) < n;) {
+      try {
+        job(i);
+      } catch (...) {
+        std::lock_guard lock(mu);
+        if (!error) error = std::current_exception();
+      }
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int k = 1; k < std::max(1, threads); ++k) pool.emplace_back(worker);
+  worker();
+  for (auto& t : pool) t.join();
+  if (error) std::rethrow_exception(error);
+}
+
+// The One Euro parameters the sweep tries: cutoff (Hz) x beta (s/m).
+std::vector<OneEuroParams> sweep_points(bool quick) {
+  const std::vector<double> cutoffs =
+      quick ? std::vector<double>{0.5, 2.0, 8.0} : std::vector<double>{0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 32.0};
+  const std::vector<double> betas =
+      quick ? std::vector<double>{1.0, 10.0, 100.0} : std::vector<double>{0.0, 1.0, 3.0, 10.0, 30.0, 100.0, 300.0};
+  std::vector<OneEuroParams> out;
+  for (const double c : cutoffs)
+    for (const double b : betas) {
+      OneEuroParams p;
+      p.min_cutoff_hz = c;
+      p.beta = b;
+      out.push_back(p);
+    }
+  return out;
+}
+
+Method oneeuro_with(const OneEuroParams& p) {
+  return {"oneeuro", [p](const std::string&) {
+            FilterConfig c;
+            c.method = FilterMethod::OneEuro;
+            c.oneeuro = p;
+            return make_filter(c);
+          }};
+}
+
+}  // namespace
+
+void tune_oneeuro(const std::vector<Dataset>& datasets, const Options& options, Report& report) {
+  const auto noise = noise_grid(options.quick);
+  const auto points = sweep_points(options.quick);
+  const ShapeVariant standard{"standard"};
+  std::vector<const Dataset*> tuning;
+  for (const Dataset& d : datasets)
+    if (d.split == Split::Tuning && d.has_truth) tuning.push_back(&d);
+  if (tuning.empty()) {
+    report.notes.push_back("no tuning set: oneeuro-tuned uses One Euro's defaults");
+    return;
+  }
+  std::vector<Prepared> inputs(noise.size() * tuning.size());
+  parallel_for(inputs.size(), options.threads, [&](size_t i) {
+    const NoiseCell& n = noise[i / tuning.size()];
+    const Dataset& d = *tuning[i % tuning.size()];
+    Cell c{"tuning", d.name, n.family, n.strength, standard.name, d.rate_hz, n.level_mm};
+    std::shared_ptr<const Track> cache;
+    inputs[i] = prepare(d, c, &n, standard, options.seed, cache);
+  });
+  std::vector<SweepPoint> sweep(noise.size() * points.size());
+  parallel_for(sweep.size(), options.threads, [&](size_t i) {
+    const NoiseCell& n = noise[i / points.size()];
+    const OneEuroParams& p = points[i % points.size()];
+    SweepPoint s{n.key(), p};
+    for (size_t k = 0; k < tuning.size(); ++k) {
+      const Metrics m = score(inputs[(i / points.size()) * tuning.size() + k], oneeuro_with(p)).at[0];
+      s.mpjpe_mm += m.mpjpe_mm / static_cast<double>(tuning.size());
+      s.jitter_mm += m.jitter_mm / static_cast<double>(tuning.size());
+      s.lag_ms += m.lag_ms / static_cast<double>(tuning.size());
+    }
+    sweep[i] = s;
+  });
+  for (size_t n = 0; n < noise.size(); ++n) {
+    const auto first = sweep.begin() + static_cast<std::ptrdiff_t>(n * points.size());
+    const auto best = std::min_element(first, first + static_cast<std::ptrdiff_t>(points.size()),
+                                       [](const SweepPoint& a, const SweepPoint& b) { return a.mpjpe_mm < b.mpjpe_mm; });
+    report.tuned.emplace_back(noise[n].key(), best->params);
+  }
+  report.tuning = std::move(sweep);
+}
+
+void run_grid(const std::vector<Dataset>& datasets, const std::vector<Method>& methods, const Options& options,
+              Report& report) {
+  const auto t_start = std::chrono::steady_clock::now();
+  const auto noise = noise_grid(options.quick);
+  const auto shapes = shape_variants(options.quick);
+  const auto find_noise = [&](const std::string& family, const std::string& strength) -> const NoiseCell* {
+    for (const auto& n : noise)
+      if (n.family == family && n.strength == strength) return &n;
+    return nullptr;
+  };
+  for (const Method& m : methods) {
+    report.methods.push_back(m.name);
+    if (m.is_model) report.models.push_back(m.name);
+  }
+  for (const Dataset& d : datasets)
+    report.sets.push_back({d.name, d.split == Split::Tuning ? "tuning" : "test", d.source, d.clean.rows.size(), d.rate_hz,
+                           d.has_truth});
+
+  // The cells: every test set with truth x every noise cell at its rate (block "noise");
+  // rates and shapes on the sets that have many hands and motions; recordings as they are.
+  struct Spec {
+    const Dataset* d;
+    Cell cell;
+    const NoiseCell* noise;
+    ShapeVariant shape;
+  };
+  std::vector<Spec> specs;
+  const std::vector<double> rates = options.quick ? std::vector<double>{20.0, 90.0} : std::vector<double>{20.0, 30.0, 60.0, 90.0};
+  const NoiseCell* tracker_preset = find_noise("preset", "tracker");
+  const NoiseCell* white = find_noise("white", "1.5mm");
+  for (const Dataset& d : datasets) {
+    if (d.split != Split::Test) continue;
+    if (!d.has_truth) {
+      specs.push_back({&d, Cell{"recorded", d.name, "recorded", "-", "-", 0.0, 0.0}, nullptr, shapes.front()});
+      continue;
+    }
+    for (const NoiseCell& n : noise)
+      specs.push_back({&d, Cell{"noise", d.name, n.family, n.strength, "standard", d.rate_hz, n.level_mm}, &n, shapes.front()});
+    if (!d.wide) continue;
+    for (const NoiseCell* n : {tracker_preset, white}) {
+      if (!n) continue;
+      for (const double r : rates)
+        if (r != d.rate_hz)
+          specs.push_back({&d, Cell{"rate", d.name, n->family, n->strength, "standard", r, n->level_mm}, n, shapes.front()});
+    }
+    for (const ShapeVariant& s : shapes)
+      if (s.kind != ShapeKind::Standard && tracker_preset)
+        specs.push_back({&d, Cell{"shape", d.name, tracker_preset->family, tracker_preset->strength, s.name, d.rate_hz, 0.0},
+                         tracker_preset, s});
+  }
+  // Prepare inputs (the shaped truth is shared by the cells of one set and shape).
+  std::vector<Prepared> inputs(specs.size());
+  {
+    std::map<std::string, std::shared_ptr<const Track>> truth_cache;
+    std::mutex mu;
+    parallel_for(specs.size(), options.threads, [&](size_t i) {
+      const Spec& s = specs[i];
+      const std::string k = s.d->name + "/" + s.shape.name;
+      std::shared_ptr<const Track> cache;
+      {
+        std::lock_guard lock(mu);
+        if (auto it = truth_cache.find(k); it != truth_cache.end()) cache = it->second;
+      }
+      inputs[i] = prepare(*s.d, s.cell, s.noise, s.shape, options.seed, cache);
+      std::lock_guard lock(mu);
+      truth_cache.emplace(k, inputs[i].truth);
+    });
+  }
+  // Score: (cell, method) jobs, models first (they take longest).
+  std::vector<std::pair<size_t, size_t>> jobs;
+  for (int pass = 0; pass < 2; ++pass)
+    for (size_t m = 0; m < methods.size(); ++m)
+      if (methods[m].is_model == (pass == 0))
+        for (size_t c = 0; c < inputs.size(); ++c) jobs.emplace_back(c, m);
+  std::vector<Result> results(jobs.size());
+  parallel_for(jobs.size(), options.threads,
+               [&](size_t i) { results[i] = score(inputs[jobs[i].first], methods[jobs[i].second]); });
+  // Report order: cell by cell, methods in the order given.
+  const auto method_pos = [&](const std::string& name) {
+    return std::find(report.methods.begin(), report.methods.end(), name) - report.methods.begin();
+  };
+  std::sort(results.begin(), results.end(), [&](const Result& a, const Result& b) {
+    const std::string ka = a.cell.key(), kb = b.cell.key();
+    return ka != kb ? ka < kb : method_pos(a.method) < method_pos(b.method);
+  });
+  for (auto& r : results) report.results.push_back(std::move(r));
+
+  // One Euro's whole sweep on one test cell: its jitter-lag curve.
+  for (const Prepared& p : inputs)
+    if (p.cell.block == "noise" && p.tuned_key == (tracker_preset ? tracker_preset->key() : "")) {
+      report.curve_cell = p.cell.key();
+      report.curve_label = p.cell.dataset + ", " + p.cell.family + " " + p.cell.strength;
+      const auto points = sweep_points(options.quick);
+      std::vector<SweepPoint> curve(points.size());
+      parallel_for(points.size(), options.threads, [&](size_t i) {
+        const Metrics m = score(p, oneeuro_with(points[i])).at[0];
+        curve[i] = SweepPoint{p.cell.key(), points[i], m.mpjpe_mm, m.jitter_mm, m.lag_ms};
+      });
+      report.curve = std::move(curve);
+      break;
+    }
+
+  // Still hands: start, resume, drift.
+  for (const Dataset& d : datasets) {
+    if (d.split != Split::Test || !d.has_truth || !d.wide) continue;
+    const Hand hand = hand_series(d.clean, Hand::Right).empty() ? Hand::Left : Hand::Right;
+    const HandSeries src = hand_series(d.clean, hand);
+    std::vector<Pose> poses;  // complete poses at 1/4, 1/2, 3/4 of the recording
+    for (const double q : {0.25, 0.5, 0.75})
+      for (size_t i = static_cast<size_t>(q * static_cast<double>(src.size())); i < src.size(); ++i)
+        if (tracked_joint_count(src.pos[i]) == kJointCount) {
+          poses.push_back(src.pos[i]);
+          break;
+        }
+    for (const ShapeVariant& shape : shapes) {
+      std::vector<StillResult> rows(methods.size());
+      parallel_for(methods.size(), options.threads, [&](size_t mi) {
+        StillResult r{d.name, shape.name, methods[mi].name};
+        for (const Pose& pose0 : poses) {
+          HandSeries one;
+          one.t = {0.0};
+          one.pos = {pose0};
+          const Pose pose = apply_shape(one, shape, seed_of(options.seed, d.name + shape.name)).pos[0];
+          HandSeries still;  // 2 s still, 0.5 s lost, 1 s still again
+          for (double t = 0.0; t < 3.5; t += 1.0 / d.rate_hz) {
+            still.t.push_back(t);
+            still.pos.push_back(t >= 2.0 && t < 2.5 ? untracked_pose() : pose);
+          }
+          auto f = methods[mi].make("");
+          const HandSeries out = filter_series(*f, still, 0.0);
+          for (size_t i = 0; i < out.size(); ++i) {
+            const double t = out.t[i];
+            if (!any_joint_tracked(out.pos[i])) continue;
+            double worst = 0.0;
+            for (int j = 0; j < kJointCount; ++j) {
+              const double e = (out.pos[i].row(j) - pose.row(j)).norm() * 1e3;
+              worst = std::max(worst, std::isfinite(e) ? e : std::numeric_limits<double>::infinity());
+            }
+            if (t < 0.3) r.start_mm = std::max(r.start_mm, worst);
+            else if (t >= 1.0 && t < 2.0) r.drift_mm = std::max(r.drift_mm, worst);
+            else if (t >= 2.5 && t < 2.8) r.resume_mm = std::max(r.resume_mm, worst);
+          }
+        }
+        rows[mi] = r;
+      });
+      for (auto& r : rows) report.still.push_back(std::move(r));
+    }
+  }
+  report.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+}
+
+}  // namespace hs::bench

@@ -1,0 +1,326 @@
+// The benchmark's report: markdown tables (with the Multi-STGAE v2 issue's criteria
+// checked for every learnt model), JSON with every number, and One Euro's curve as CSV.
+#include "handsteady/benchmark.hpp"
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <set>
+
+namespace hs::bench {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// Results by cell key, then method.
+using Index = std::map<std::string, std::map<std::string, const Result*>>;
+Index index_of(const Report& r) {
+  Index ix;
+  for (const Result& x : r.results) ix[x.cell.key()][x.method] = &x;
+  return ix;
+}
+const Metrics* at(const Index& ix, const Cell& c, const std::string& method, size_t h) {
+  const auto a = ix.find(c.key());
+  if (a == ix.end()) return nullptr;
+  const auto b = a->second.find(method);
+  return b == a->second.end() ? nullptr : &b->second->at[h];
+}
+
+// Cells of one block (in report order, each once).
+std::vector<Cell> cells_of(const Report& r, const std::string& block) {
+  std::vector<Cell> out;
+  std::set<std::string> seen;
+  for (const Result& x : r.results)
+    if (x.cell.block == block && seen.insert(x.cell.key()).second) out.push_back(x.cell);
+  return out;
+}
+
+std::string num(double v, int decimals) { return std::isfinite(v) ? fmt::format("{:.{}f}", v, decimals) : "–"; }
+
+std::string header_row(const std::vector<std::string>& first, const std::vector<std::string>& methods) {
+  std::string s = "|";
+  for (const auto& f : first) s += " " + f + " |";
+  for (const auto& m : methods) s += " " + m + " |";
+  s += "\n|";
+  for (size_t i = 0; i < first.size(); ++i) s += "---|";
+  for (size_t i = 0; i < methods.size(); ++i) s += "---:|";
+  return s + "\n";
+}
+
+using CellText = std::function<std::string(const Metrics&)>;
+
+// One row per cell, one column per method.
+std::string table(const Report& r, const Index& ix, const std::vector<Cell>& cells,
+                  const std::vector<std::string>& first_cols, const std::function<std::vector<std::string>(const Cell&)>& first,
+                  size_t h, const CellText& text) {
+  std::string s = header_row(first_cols, r.methods);
+  for (const Cell& c : cells) {
+    s += "|";
+    for (const auto& f : first(c)) s += " " + f + " |";
+    for (const auto& m : r.methods) {
+      const Metrics* x = at(ix, c, m, h);
+      s += " " + (x ? text(*x) : std::string("–")) + " |";
+    }
+    s += "\n";
+  }
+  return s + "\n";
+}
+
+bool strong_noise(const Cell& c) {
+  return (c.family == "white" || c.family == "correlated" || c.family.rfind("tremor-", 0) == 0) && c.level_mm >= 1.5;
+}
+bool low_noise(const Cell& c) {
+  return (c.family == "white" || c.family == "correlated" || c.family.rfind("tremor-", 0) == 0) && c.level_mm < 1.5;
+}
+
+struct Tally {
+  int pass = 0, total = 0;
+  double worst = -std::numeric_limits<double>::infinity();
+  std::string worst_cell;
+  void add(bool ok, double ratio, const std::string& cell) {
+    ++total;
+    pass += ok ? 1 : 0;
+    if (std::isfinite(ratio) && ratio > worst) {
+      worst = ratio;
+      worst_cell = cell;
+    }
+  }
+  std::string text(const std::string& what) const {
+    if (total == 0) return "no cells";
+    return fmt::format("{} {}/{} cells{}", pass == total ? "**pass**" : "**fail**", pass, total,
+                       std::isfinite(worst) ? fmt::format("; worst {} {:.2f} ({})", what, worst, worst_cell) : "");
+  }
+};
+
+std::string criteria(const Report& r, const Index& ix) {
+  std::string s;
+  const auto noise_cells = cells_of(r, "noise");
+  for (const auto& model : r.models) {
+    Tally den, low, pred, pred_jit, rec, still;
+    for (const Cell& c : noise_cells) {
+      const Metrics* m = at(ix, c, model, 0);
+      const Metrics* oe = at(ix, c, "oneeuro-tuned", 0);
+      const Metrics* raw = at(ix, c, "raw", 0);
+      const std::string name = c.dataset + " " + c.family + " " + c.strength;
+      if (m && oe && strong_noise(c)) {
+        const double ratio = m->mpjpe_mm / oe->mpjpe_mm;
+        den.add(ratio <= 0.6 && m->lag_ms <= 5.0, ratio, name);
+      }
+      if (m && raw && low_noise(c)) low.add(m->mpjpe_mm <= raw->mpjpe_mm, m->mpjpe_mm / raw->mpjpe_mm, name);
+      const Metrics* m50 = at(ix, c, model, 2);
+      const Metrics* k50 = at(ix, c, "kalman", 2);
+      const Metrics* d50 = at(ix, c, "desp", 2);
+      if (m50 && k50 && d50) {
+        const double best = std::min(k50->mpjpe_mm, d50->mpjpe_mm);
+        pred.add(m50->mpjpe_mm <= 0.75 * best, m50->mpjpe_mm / best, name);
+        const double jr = m50->jitter_mm / m50->truth_jitter_mm;
+        pred_jit.add(jr <= 1.5, jr, name);
+      }
+    }
+    for (const Cell& c : cells_of(r, "recorded")) {
+      const Metrics* m = at(ix, c, model, 0);
+      for (const std::string other : {"oneeuro", "kalman"}) {
+        const Metrics* o = at(ix, c, other, 0);
+        if (m && o) rec.add(m->jitter_mm < o->jitter_mm && m->lag_ms <= o->lag_ms, m->jitter_mm / o->jitter_mm, c.dataset + " vs " + other);
+      }
+    }
+    for (const StillResult& x : r.still)
+      if (x.method == model) {
+        const double worst = std::max({x.start_mm / 1.0, x.resume_mm / 1.0, x.drift_mm / 0.3});
+        still.add(x.start_mm <= 1.0 && x.resume_mm <= 1.0 && x.drift_mm <= 0.3, worst, x.dataset + " " + x.shape);
+      }
+    s += fmt::format("**{}**\n\n", model);
+    s += "| criterion | result |\n|---|---|\n";
+    s += fmt::format("| denoising, jitter/tremor ≥ 1.5 mm: MPJPE ≤ 0.6 × tuned One Euro, lag ≤ 5 ms | {} |\n", den.text("ratio"));
+    s += fmt::format("| denoising, low noise: MPJPE ≤ raw | {} |\n", low.text("ratio to raw"));
+    s += fmt::format("| recordings without truth: less jitter than One Euro and Kalman at no more lag | {} |\n",
+                     rec.text("jitter ratio"));
+    s += fmt::format("| prediction 50 ms: MPJPE ≤ 0.75 × best of Kalman/DESP | {} |\n", pred.text("ratio"));
+    s += fmt::format("| prediction 50 ms: jitter ≤ 1.5 × the truth's | {} |\n", pred_jit.text("ratio"));
+    s += fmt::format("| start ≤ 1 mm, resume ≤ 1 mm, still drift ≤ 0.3 mm, every shape | {} |\n\n",
+                     still.text("error / limit"));
+  }
+  if (r.models.empty()) s += "No learnt model was benchmarked (none given or found).\n\n";
+  return s;
+}
+
+}  // namespace
+
+std::string report_markdown(const Report& r, const Options& o) {
+  const Index ix = index_of(r);
+  std::string s = "# HandSteady benchmark\n\n";
+  if (!r.command.empty()) s += fmt::format("Made by `{}`.\n\n", r.command);
+  s += fmt::format("Grid: {} cells × {} methods, seed {}, {}; {:.0f} s on {} threads. Units: mm, ms; jitter = mean "
+                   "second difference per input row (mm), shown as a ratio to the truth's where marked. Every method "
+                   "runs causally; the answer at t + H is scored against the truth at t + H.\n\n",
+                   r.results.size() / std::max<size_t>(1, r.methods.size()), r.methods.size(), o.seed,
+                   o.quick ? "**quick subset**" : "full grid", r.seconds, o.threads);
+  for (const auto& n : r.notes) s += "- note: " + n + "\n";
+  if (!r.notes.empty()) s += "\n";
+
+  s += "## Data\n\n| set | split | rows | grid rate Hz | truth | source |\n|---|---|---:|---:|---|---|\n";
+  for (const auto& d : r.sets)
+    s += fmt::format("| {} | {} | {} | {} | {} | {} |\n", d.name, d.split, d.rows, d.rate_hz > 0 ? num(d.rate_hz, 0) : "as recorded",
+                     d.truth ? "yes" : "no (scored against itself)", d.source);
+
+  s += "\n## Criteria (Multi-STGAE v2 issue)\n\n";
+  s += criteria(r, ix);
+
+  s += "## One Euro tuned per noise cell (tuning split, minimum MPJPE at H = 0)\n\n";
+  s += "| noise | min cutoff Hz | beta s/m | tuning MPJPE |\n|---|---:|---:|---:|\n";
+  for (const auto& [key, p] : r.tuned) {
+    double best = kNaN;
+    for (const auto& t : r.tuning)
+      if (t.cell == key && t.params.min_cutoff_hz == p.min_cutoff_hz && t.params.beta == p.beta) best = t.mpjpe_mm;
+    s += fmt::format("| {} | {:g} | {:g} | {} |\n", key, p.min_cutoff_hz, p.beta, num(best, 2));
+  }
+  s += "\n";
+
+  const auto noise = cells_of(r, "noise");
+  std::vector<std::string> sets;
+  for (const Cell& c : noise)
+    if (std::find(sets.begin(), sets.end(), c.dataset) == sets.end()) sets.push_back(c.dataset);
+  const auto noise_name = [](const Cell& c) { return std::vector<std::string>{c.family, c.strength}; };
+  for (const auto& set : sets) {
+    std::vector<Cell> cs;
+    for (const Cell& c : noise)
+      if (c.dataset == set) cs.push_back(c);
+    s += fmt::format("## {}\n\n", set);
+    s += "Denoising (H = 0): MPJPE (lag ms)\n\n";
+    s += table(r, ix, cs, {"noise", "strength"}, noise_name, 0,
+               [](const Metrics& m) { return num(m.mpjpe_mm, 2) + " (" + num(m.lag_ms, 0) + ")"; });
+    s += "Denoising (H = 0): jitter ÷ truth's · E_bon mm²\n\n";
+    s += table(r, ix, cs, {"noise", "strength"}, noise_name, 0, [](const Metrics& m) {
+      return num(m.jitter_mm / m.truth_jitter_mm, 2) + " · " + num(m.e_bon_mm2, 1);
+    });
+    for (size_t h = 1; h < kHorizonsS.size(); ++h) {
+      s += fmt::format("Prediction at {:.0f} ms: MPJPE (jitter ÷ truth's)\n\n", kHorizonsS[h] * 1e3);
+      s += table(r, ix, cs, {"noise", "strength"}, noise_name, h, [](const Metrics& m) {
+        return num(m.mpjpe_mm, 2) + " (" + num(m.jitter_mm / m.truth_jitter_mm, 2) + ")";
+      });
+    }
+  }
+
+  if (const auto cs = cells_of(r, "rate"); !cs.empty()) {
+    s += "## Input rates (irregular times, ±20 % of a period)\n\nMPJPE at H = 0 (lag ms) · MPJPE at 50 ms\n\n";
+    std::string t = header_row({"set", "noise", "rate Hz"}, r.methods);
+    for (const Cell& c : cs) {
+      t += fmt::format("| {} | {} {} | {:g} |", c.dataset, c.family, c.strength, c.rate_hz);
+      for (const auto& m : r.methods) {
+        const Metrics* a = at(ix, c, m, 0);
+        const Metrics* b = at(ix, c, m, 2);
+        t += " " + (a && b ? num(a->mpjpe_mm, 2) + " (" + num(a->lag_ms, 0) + ") · " + num(b->mpjpe_mm, 2) : "–") + " |";
+      }
+      t += "\n";
+    }
+    s += t + "\n";
+  }
+  if (const auto cs = cells_of(r, "shape"); !cs.empty()) {
+    s += "## Hand shapes (tracker preset)\n\nMPJPE at H = 0 · E_bon mm²\n\n";
+    s += table(r, ix, cs, {"set", "shape"}, [](const Cell& c) { return std::vector<std::string>{c.dataset, c.shape}; }, 0,
+               [](const Metrics& m) { return num(m.mpjpe_mm, 2) + " · " + num(m.e_bon_mm2, 1); });
+  }
+  if (const auto cs = cells_of(r, "recorded"); !cs.empty()) {
+    s += "## Recordings without truth (scored against the raw recording)\n\n";
+    s += "H = 0: jitter mm (raw's) · lag behind raw ms; H = 20 and 50 ms: distance to the observed future mm (jitter)\n\n";
+    for (const Cell& c : cs) {
+      s += fmt::format("**{}**\n\n| method | jitter | raw jitter | lag ms | 20 ms | 50 ms |\n|---|---:|---:|---:|---:|---:|\n",
+                       c.dataset);
+      for (const auto& m : r.methods) {
+        const Metrics* a = at(ix, c, m, 0);
+        const Metrics* b = at(ix, c, m, 1);
+        const Metrics* d = at(ix, c, m, 2);
+        if (!a || !b || !d) continue;
+        s += fmt::format("| {} | {} | {} | {} | {} ({}) | {} ({}) |\n", m, num(a->jitter_mm, 3), num(a->truth_jitter_mm, 3),
+                         num(a->lag_ms, 1), num(b->mpjpe_mm, 2), num(b->jitter_mm, 3), num(d->mpjpe_mm, 2),
+                         num(d->jitter_mm, 3));
+      }
+      s += "\n";
+    }
+  }
+  if (!r.still.empty()) {
+    s += "## Start and stillness (a still pose, lost for 0.5 s, back)\n\nlargest joint error mm: first 0.3 s · after "
+         "the return · drift from 1 s to 2 s\n\n";
+    s += header_row({"set", "shape"}, r.methods);
+    std::vector<std::pair<std::string, std::string>> keys;
+    for (const auto& x : r.still)
+      if (std::find(keys.begin(), keys.end(), std::pair{x.dataset, x.shape}) == keys.end()) keys.emplace_back(x.dataset, x.shape);
+    for (const auto& [set, shape] : keys) {
+      s += fmt::format("| {} | {} |", set, shape);
+      for (const auto& m : r.methods) {
+        std::string cell = "–";
+        for (const auto& x : r.still)
+          if (x.dataset == set && x.shape == shape && x.method == m)
+            cell = num(x.start_mm, 2) + " · " + num(x.resume_mm, 2) + " · " + num(x.drift_mm, 2);
+        s += " " + cell + " |";
+      }
+      s += "\n";
+    }
+    s += "\n";
+  }
+  if (!r.curve.empty()) {
+    s += fmt::format("## One Euro's jitter–lag curve ({})\n\nEvery swept parameter pair (curve.csv; plotted in "
+                     "oneeuro_curve.png when the benchmark is built with the renderer).\n\n"
+                     "| min cutoff Hz | beta s/m | MPJPE | jitter | lag ms |\n|---:|---:|---:|---:|---:|\n",
+                     r.curve_cell);
+    for (const auto& p : r.curve)
+      s += fmt::format("| {:g} | {:g} | {} | {} | {} |\n", p.params.min_cutoff_hz, p.params.beta, num(p.mpjpe_mm, 2),
+                       num(p.jitter_mm, 3), num(p.lag_ms, 1));
+  }
+  return s;
+}
+
+std::string report_json(const Report& r, const Options& o) {
+  using nlohmann::json;
+  const auto metrics = [](const Metrics& m) {
+    const auto v = [](double x) { return std::isfinite(x) ? json(x) : json(nullptr); };
+    return json{{"mpjpe_mm", v(m.mpjpe_mm)},   {"e_bon_mm2", v(m.e_bon_mm2)}, {"jitter_mm", v(m.jitter_mm)},
+                {"truth_jitter_mm", v(m.truth_jitter_mm)}, {"lag_ms", v(m.lag_ms)}, {"frames", m.frames}};
+  };
+  json j;
+  j["command"] = r.command;
+  j["quick"] = o.quick;
+  j["seed"] = o.seed;
+  j["seconds"] = r.seconds;
+  j["methods"] = r.methods;
+  j["models"] = r.models;
+  j["notes"] = r.notes;
+  j["curve_cell"] = r.curve_cell;
+  j["curve_label"] = r.curve_label;
+  for (const auto& d : r.sets)
+    j["sets"].push_back({{"name", d.name}, {"split", d.split}, {"rows", d.rows}, {"rate_hz", d.rate_hz}, {"truth", d.truth},
+                         {"source", d.source}});
+  for (const auto& [k, p] : r.tuned) j["oneeuro_tuned"][k] = {{"min_cutoff_hz", p.min_cutoff_hz}, {"beta", p.beta}};
+  for (const auto& x : r.results) {
+    json e{{"block", x.cell.block},   {"set", x.cell.dataset}, {"family", x.cell.family}, {"strength", x.cell.strength},
+           {"shape", x.cell.shape},   {"rate_hz", x.cell.rate_hz}, {"level_mm", x.cell.level_mm}, {"method", x.method},
+           {"cell", x.cell.key()}};
+    for (size_t h = 0; h < kHorizonsS.size(); ++h) e[fmt::format("h{:.0f}ms", kHorizonsS[h] * 1e3)] = metrics(x.at[h]);
+    j["results"].push_back(e);
+  }
+  for (const auto& x : r.still)
+    j["still"].push_back({{"set", x.dataset}, {"shape", x.shape}, {"method", x.method}, {"start_mm", x.start_mm},
+                          {"resume_mm", x.resume_mm}, {"drift_mm", x.drift_mm}});
+  for (const auto& p : r.curve)
+    j["oneeuro_curve"].push_back({{"min_cutoff_hz", p.params.min_cutoff_hz}, {"beta", p.params.beta},
+                                  {"mpjpe_mm", p.mpjpe_mm}, {"jitter_mm", p.jitter_mm}, {"lag_ms", p.lag_ms}});
+  return j.dump(1) + "\n";
+}
+
+std::string curve_csv(const Report& r) {
+  std::string s = "method,min_cutoff_hz,beta,mpjpe_mm,jitter_mm,lag_ms\n";
+  for (const auto& p : r.curve)
+    s += fmt::format("oneeuro-sweep,{:g},{:g},{:.4f},{:.5f},{:.3f}\n", p.params.min_cutoff_hz, p.params.beta, p.mpjpe_mm,
+                     p.jitter_mm, p.lag_ms);
+  // Every method on the same cell, as points.
+  for (const auto& x : r.results)
+    if (x.cell.key() == r.curve_cell)
+      s += fmt::format("{},,,{:.4f},{:.5f},{:.3f}\n", x.method, x.at[0].mpjpe_mm, x.at[0].jitter_mm, x.at[0].lag_ms);
+  return s;
+}
+
+}  // namespace hs::bench

@@ -1,0 +1,243 @@
+// The quality benchmark's parts (noise, shapes, irregular rates, multi-horizon runs, the
+// still-hand measure, the report) on synthetic motion, and the CLI's quick run on the
+// shared recordings.
+#include "handsteady/benchmark.hpp"
+#include "handsteady/corrupt.hpp"
+#include "handsteady/filters.hpp"
+#include "handsteady/synth.hpp"
+#include "handsteady/track_ops.hpp"
+
+#include "test_support.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <fstream>
+#include <sstream>
+
+using namespace hs;
+
+namespace {
+
+HandSeries synth_series(double seconds, double rate, uint64_t seed) {
+  SynthMotionParams p;
+  p.duration_s = seconds;
+  p.rate_hz = rate;
+  return synth_motion(p, Hand::Right, seed);
+}
+
+double bone(const Pose& p, int j) { return (p.row(j) - p.row(kXrParent[static_cast<size_t>(j)])).norm(); }
+
+std::string slurp(const std::filesystem::path& f) {
+  std::ifstream in(f);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+}  // namespace
+
+TEST_CASE("outliers: single joints jump 10-50 mm for 1-3 rows; the other noise draws the same as without them") {
+  const HandSeries clean = synth_series(20.0, 60.0, 3);
+  CorruptionConfig base;
+  base.kind = CorruptionKind::Tracker;
+  base.tracker.jitter_sd_m = 0.001;
+  base.tracker.jump_prob = 0.01;
+  base.tracker.jump_sd_m = 0.005;
+  CorruptionConfig with = base;
+  with.tracker.outlier_prob = 0.01;
+  const HandSeries a = corrupt_series(clean, base, 7), b = corrupt_series(clean, with, 7);
+  int displaced = 0, runs = 0, longest = 0;
+  for (int j = 0; j < kJointCount; ++j) {
+    int run = 0;
+    for (size_t i = 0; i < clean.size(); ++i) {
+      const double d = (b.pos[i].row(j) - a.pos[i].row(j)).norm();
+      if (d > 0.0) {
+        CHECK(d >= 0.010 - 1e-12);
+        CHECK(d <= 0.050 + 1e-12);
+        ++displaced;
+        if (run == 0) ++runs;
+        ++run;
+        longest = std::max(longest, run);
+      } else {
+        run = 0;
+      }
+    }
+  }
+  const double expected = 0.01 * static_cast<double>(clean.size()) * kJointCount;  // starts
+  CHECK(runs > 0.7 * expected);
+  CHECK(runs < 1.3 * expected);
+  CHECK(longest <= 6);  // 3 rows, or two outliers back to back
+  CHECK(displaced > runs);  // some last longer than one row
+  with.tracker.outlier_max_rows = 0;
+  CHECK_THROWS_AS(validate_corruption(with), std::invalid_argument);
+}
+
+TEST_CASE("one pass with several horizons answers as one pass per horizon") {
+  const HandSeries in = synth_series(5.0, 45.0, 1);
+  FilterConfig c;
+  c.method = FilterMethod::Kalman;
+  auto f = make_filter(c);
+  const std::vector<double> hs = {0.0, 0.02, 0.05};
+  const auto all = filter_series(*f, in, std::span<const double>(hs));
+  REQUIRE(all.size() == 3);
+  for (size_t k = 0; k < hs.size(); ++k) {
+    const HandSeries one = filter_series(*f, in, hs[k]);
+    REQUIRE(one.size() == all[k].size());
+    for (size_t i = 0; i < one.size(); ++i) CHECK((one.pos[i] - all[k].pos[i]).cwiseAbs().maxCoeff() == 0.0);
+  }
+}
+
+TEST_CASE("hand shapes change what they name and nothing else") {
+  HandSeries s;
+  s.t = {0.0};
+  s.pos = {test::synthetic_hand()};
+  s.pos[0].row(idx(Joint::Palm)) = 0.5 * (s.pos[0].row(idx(Joint::MiddleMetacarpal)) + s.pos[0].row(idx(Joint::MiddleProximal)));
+  const Pose& in = s.pos[0];
+  const Pose big = bench::apply_shape(s, {"x1.2", bench::ShapeKind::Scale, 1.2}, 1).pos[0];
+  CHECK((big.row(idx(Joint::Wrist)) - in.row(idx(Joint::Wrist))).norm() == doctest::Approx(0.0));
+  for (int j = 0; j < kJointCount; ++j)
+    if (kXrParent[static_cast<size_t>(j)] >= 0) CHECK(bone(big, j) == doctest::Approx(1.2 * bone(in, j)));
+  const Pose jit = bench::apply_shape(s, {"+-20%", bench::ShapeKind::BoneJitter, 0.2}, 5).pos[0];
+  bool changed = false;
+  for (int j = 0; j < kJointCount; ++j)
+    if (kXrParent[static_cast<size_t>(j)] >= 0) {
+      const double r = bone(jit, j) / bone(in, j);
+      CHECK(r >= 0.8 - 1e-9);
+      CHECK(r <= 1.2 + 1e-9);
+      changed = changed || std::abs(r - 1.0) > 0.01;
+    }
+  CHECK(changed);
+  const auto only = [&](const Pose& out, Joint moved) {
+    for (int j = 0; j < kJointCount; ++j)
+      if (j != idx(moved)) CHECK((out.row(j) - in.row(j)).norm() == 0.0);
+    return (out.row(idx(moved)) - in.row(idx(moved))).norm();
+  };
+  CHECK(only(bench::apply_shape(s, {"w", bench::ShapeKind::WristProximal, 0.02}, 1).pos[0], Joint::Wrist) ==
+        doctest::Approx(0.02));
+  CHECK(only(bench::apply_shape(s, {"p", bench::ShapeKind::PalmCentroid, 0.0}, 1).pos[0], Joint::Palm) > 0.001);
+  CHECK(only(bench::apply_shape(s, {"t", bench::ShapeKind::ThumbBase, 0.3}, 1).pos[0], Joint::ThumbMetacarpal) ==
+        doctest::Approx(0.3 * (in.row(idx(Joint::ThumbMetacarpal)) - in.row(idx(Joint::Wrist))).norm()));
+}
+
+TEST_CASE("irregular resampling: increasing times within 20 % of the grid, the truth interpolated there") {
+  const HandSeries in = synth_series(10.0, 120.0, 2);
+  const HandSeries out = bench::resample_irregular(in, 30.0, 9);
+  REQUIRE(out.size() > 280);
+  CHECK(out.size() <= 301);
+  double max_off = 0.0, mean_dt = (out.t.back() - out.t.front()) / static_cast<double>(out.size() - 1);
+  bool irregular = false;
+  for (size_t i = 0; i < out.size(); ++i) {
+    if (i > 0) CHECK(out.t[i] > out.t[i - 1]);
+    const double k = std::round((out.t[i] - in.t.front()) * 30.0);
+    max_off = std::max(max_off, std::abs(out.t[i] - in.t.front() - k / 30.0) * 30.0);
+    irregular = irregular || std::abs(out.t[i] - in.t.front() - k / 30.0) * 30.0 > 0.05;
+    CHECK((out.pos[i] - interpolate_pose(in, out.t[i])).cwiseAbs().maxCoeff() == doctest::Approx(0.0));
+  }
+  CHECK(max_off <= 0.2 + 1e-9);
+  CHECK(irregular);
+  CHECK(mean_dt == doctest::Approx(1.0 / 30.0).epsilon(0.01));
+}
+
+TEST_CASE("the grid on synthetic motion: noise is what it says, filters are scored, the still measure can fail") {
+  std::vector<bench::Dataset> sets(2);
+  sets[0].name = "synth-tuning";
+  sets[0].split = bench::Split::Tuning;
+  add_hand_series(sets[0].clean, Hand::Right, synth_series(10.0, 120.0, 11));
+  sets[1].name = "synth-test";
+  sets[1].wide = true;
+  add_hand_series(sets[1].clean, Hand::Right, synth_series(10.0, 120.0, 12));
+  bench::Options o;
+  o.quick = true;
+  bench::Report r;
+  bench::tune_oneeuro(sets, o, r);
+  CHECK(r.tuned.size() == bench::noise_grid(true).size());
+  auto methods = bench::classical_methods(r.tuned);
+  // A method that answers 5 mm off: the still-hand measure must see it.
+  methods.push_back({"offset", [](const std::string&) {
+                       struct Offset final : PoseFilter {
+                         Pose last = untracked_pose();
+                         double t = std::numeric_limits<double>::quiet_NaN();
+                         void reset() noexcept override { t = std::numeric_limits<double>::quiet_NaN(); }
+                         bool push(double tt, const Pose& p) noexcept override {
+                           t = tt;
+                           last = p;
+                           return true;
+                         }
+                         void estimate(double, Pose& out) const noexcept override {
+                           out = last;
+                           out.col(0).array() += 0.005;
+                         }
+                         double last_time() const noexcept override { return t; }
+                       };
+                       return std::unique_ptr<PoseFilter>(std::make_unique<Offset>());
+                     }});
+  bench::run_grid(sets, methods, o, r);
+  REQUIRE(!r.results.empty());
+  CHECK(r.results.size() % methods.size() == 0);
+  const auto find = [&](const std::string& family, const std::string& method) -> const bench::Result* {
+    for (const auto& x : r.results)
+      if (x.cell.block == "noise" && x.cell.family == family && x.method == method) return &x;
+    return nullptr;
+  };
+  const auto* raw = find("white", "raw");
+  const auto* kal = find("white", "kalman");
+  const auto* oe = find("white", "oneeuro-tuned");
+  REQUIRE(raw);
+  REQUIRE(kal);
+  REQUIRE(oe);
+  // White noise of 1.5 mm per coordinate: mean distance 1.5 * sqrt(8 / pi) = 2.39 mm.
+  CHECK(raw->at[0].mpjpe_mm == doctest::Approx(2.39).epsilon(0.08));
+  CHECK(std::abs(raw->at[0].lag_ms) < 2.0);
+  CHECK(kal->at[0].mpjpe_mm < raw->at[0].mpjpe_mm);
+  CHECK(oe->at[0].mpjpe_mm < raw->at[0].mpjpe_mm);
+  CHECK(raw->at[2].mpjpe_mm > raw->at[0].mpjpe_mm);  // holding the last sample 50 ms is worse
+  bool rate = false, shape = false;
+  for (const auto& x : r.results) {
+    rate = rate || x.cell.block == "rate";
+    shape = shape || x.cell.block == "shape";
+  }
+  CHECK(rate);
+  CHECK(shape);
+  bool saw_raw = false, saw_offset = false;
+  for (const auto& s : r.still) {
+    if (s.method == "raw") {
+      saw_raw = true;
+      CHECK(s.start_mm == doctest::Approx(0.0));
+      CHECK(s.drift_mm == doctest::Approx(0.0));
+    }
+    if (s.method == "offset") {
+      saw_offset = true;
+      CHECK(s.start_mm == doctest::Approx(5.0));
+      CHECK(s.resume_mm == doctest::Approx(5.0));
+    }
+  }
+  CHECK(saw_raw);
+  CHECK(saw_offset);
+  const std::string md = bench::report_markdown(r, o);
+  CHECK(md.find("## synth-test") != std::string::npos);
+  CHECK(md.find("## Start and stillness") != std::string::npos);
+  const auto j = nlohmann::json::parse(bench::report_json(r, o));
+  CHECK(j["results"].size() == r.results.size());
+  CHECK(bench::curve_csv(r).find("oneeuro-sweep") != std::string::npos);
+}
+
+TEST_CASE("handsteady benchmark --quick on the shared recordings writes the report") {
+  HS_SKIP_WITHOUT_SHARED_DATA();
+  if (HS_SANITIZED) {
+    MESSAGE("skipped in sanitizer builds (the grid runs the model over every cell)");
+    return;
+  }
+  const auto dir = test::temp_dir("benchmark");
+  REQUIRE(test::run_cli("benchmark --quick --data \"" + test::shared_data().string() + "\" --out \"" + dir.string() +
+                        "\" > /dev/null") == 0);
+  const std::string md = slurp(dir / "benchmark.md");
+  for (const char* set : {"fpha-s5", "manipnet-mug3", "leap-gestures-s04", "leap-handwriting"})
+    CHECK_MESSAGE(md.find(std::string("## ") + set) != std::string::npos, set);
+  CHECK(md.find("**hololens2**") != std::string::npos);
+  CHECK(md.find("## Criteria") != std::string::npos);
+  const auto j = nlohmann::json::parse(slurp(dir / "benchmark.json"));
+  CHECK(j["results"].size() > 100);
+  CHECK(!j["oneeuro_curve"].empty());
+  CHECK(test::run_cli("benchmark --quick --data /nonexistent --out \"" + dir.string() + "\" 2> /dev/null") != 0);
+  std::filesystem::remove_all(dir);
+}
