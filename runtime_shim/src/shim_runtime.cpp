@@ -16,6 +16,7 @@
 #include "handsteady_xr/loader_negotiation.hpp"
 #include "handsteady_xr/xr_math.hpp"
 #include "shim_config.hpp"
+#include "shim_hand.hpp"
 
 #include <algorithm>
 #include <array>
@@ -130,66 +131,6 @@ Rigid reference_in_world(const Runtime& r, XrReferenceSpaceType type, double t) 
 
 Rigid space_in_world(const Runtime& r, const SpaceData& s, double t) {
   return reference_in_world(r, s.type, t) * s.pose_in_ref;
-}
-
-// Joint frames from positions: -Z along the joint's bone, +Y out of the back of the hand.
-std::array<Eigen::Matrix3d, kJointCount> joint_frames(const Pose& p, XrHandEXT hand) {
-  std::array<Eigen::Matrix3d, kJointCount> out;
-  const Eigen::Vector3d wrist = p.row(idx(Joint::Wrist)).transpose();
-  const Eigen::Vector3d index = p.row(idx(Joint::IndexProximal)).transpose();
-  const Eigen::Vector3d little = p.row(idx(Joint::LittleProximal)).transpose();
-  Eigen::Vector3d back = (little - wrist).cross(index - wrist);
-  if (hand == XR_HAND_LEFT_EXT) back = -back;
-  for (int j = 0; j < kJointCount; ++j) {
-    out[j].setIdentity();
-    const auto [a, b] = kXrFrameBone[j];
-    const Eigen::Vector3d bone = (p.row(b) - p.row(a)).transpose();
-    if (!bone.allFinite() || bone.norm() < 1e-9 || !back.allFinite()) continue;
-    const Eigen::Vector3d z = -bone.normalized();
-    Eigen::Vector3d y = back - back.dot(z) * z;
-    if (y.norm() < 1e-9) continue;
-    y.normalize();
-    out[j].col(0) = y.cross(z);
-    out[j].col(1) = y;
-    out[j].col(2) = z;
-  }
-  return out;
-}
-
-// The replayed hand at XrTime t in world coordinates (untracked joints NaN).
-Pose hand_at(const Runtime& r, XrHandEXT hand, XrTime t) {
-  const auto& series = r.hands[hand == XR_HAND_LEFT_EXT ? 0 : 1];
-  if (series.empty()) return untracked_pose();
-  const XrTime now = now_locked(r);
-  switch (r.cfg.future) {
-    case FuturePolicy::Exact: break;
-    case FuturePolicy::Hold: t = std::min(t, now); break;
-    case FuturePolicy::Latest: t = now; break;
-    case FuturePolicy::Extrapolate: {
-      // The newest capture available now and the one before, on the capture grid.
-      const double period = 1.0 / r.cfg.capture_hz;
-      const double newest = std::floor(track_time(r, std::min(t, now) - r.cfg.capture_latency_ns) / period) * period;
-      const Pose a = interpolate_pose(series, newest - period), b = interpolate_pose(series, newest);
-      const double ahead = track_time(r, t) - newest;
-      if (ahead <= 0.0) return interpolate_pose(series, track_time(r, t));
-      if (!any_joint_tracked(b)) return b;
-      Pose out = b + (b - a) * (ahead / period);  // joints missing in a stay missing
-      for (int j = 0; j < kJointCount; ++j)
-        if (!joint_tracked(a, j) && joint_tracked(b, j)) out.row(j) = b.row(j);
-      return out;
-    }
-  }
-  return interpolate_pose(series, track_time(r, t));
-}
-
-// Deterministic uniform [0,1) from (time, hand, joint, salt): faults repeat for repeated queries.
-double fault_draw(XrTime t, int hand, int joint, uint64_t salt) {
-  uint64_t x = static_cast<uint64_t>(t) * 0x9E3779B97F4A7C15ull ^ (static_cast<uint64_t>(hand) << 40) ^
-               (static_cast<uint64_t>(joint) << 48) ^ salt;
-  x ^= x >> 30; x *= 0xBF58476D1CE4E5B9ull;
-  x ^= x >> 27; x *= 0x94D049BB133111EBull;
-  x ^= x >> 31;
-  return static_cast<double>(x >> 11) * 0x1.0p-53;
 }
 
 void push_state_event(Runtime& r, XrSession session, XrSessionState state, XrTime time) {
@@ -682,17 +623,6 @@ XRAPI_ATTR XrResult XRAPI_CALL DestroyHandTrackerEXT(XrHandTrackerEXT tracker) {
   return r.trackers.erase(id_of(tracker)) ? XR_SUCCESS : XR_ERROR_HANDLE_INVALID;
 }
 
-// A joint's world position, or for an untracked joint its nearest tracked ancestor's
-// (so that an active hand reports every joint valid, as the extension requires).
-Eigen::Vector3d valid_position(const Pose& p, int j) {
-  const auto& parent = xr_hand_skeleton().parent;
-  for (int k = j; k >= 0; k = parent[k])
-    if (joint_tracked(p, k)) return p.row(k).transpose();
-  for (int k = 0; k < kJointCount; ++k)
-    if (joint_tracked(p, k)) return p.row(k).transpose();
-  return Eigen::Vector3d::Zero();
-}
-
 XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, const XrHandJointsLocateInfoEXT* info,
                                                    XrHandJointLocationsEXT* out) {
   Runtime& r = rt();
@@ -712,7 +642,10 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
   if (vel && (vel->jointCount != XR_HAND_JOINT_COUNT_EXT || !vel->jointVelocities)) return XR_ERROR_VALIDATION_FAILURE;
 
   const XrHandEXT hand = tr->second.hand;
-  const Pose world = hand_at(r, hand, info->time);
+  const auto& series = r.hands[hand == XR_HAND_LEFT_EXT ? 0 : 1];
+  const TrackClock clock{r.t0, r.epoch};
+  const XrTime now = now_locked(r);
+  const Pose world = replayed_hand(series, r.cfg, clock, info->time, now);
   if (!any_joint_tracked(world)) {
     out->isActive = XR_FALSE;
     for (uint32_t j = 0; j < out->jointCount; ++j) out->jointLocations[j].locationFlags = 0;
@@ -724,9 +657,8 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
   auto joints_in_base = [&](XrTime t, const Pose& w, std::array<Eigen::Vector3d, kJointCount>& pos,
                             std::array<Eigen::Matrix3d, kJointCount>& rot) {
     const Rigid world_to_base = space_in_world(r, base->second, track_time(r, t)).inverse();
-    Pose filled = w;
-    for (int j = 0; j < kJointCount; ++j) filled.row(j) = valid_position(w, j).transpose();
-    const auto frames = joint_frames(filled, hand);
+    const Pose filled = with_valid_positions(w);
+    const auto frames = joint_frames(filled, hand == XR_HAND_LEFT_EXT);
     for (int j = 0; j < kJointCount; ++j) {
       pos[j] = world_to_base * Eigen::Vector3d(filled.row(j).transpose());
       rot[j] = world_to_base.linear() * frames[j];
@@ -740,7 +672,7 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
     XrHandJointLocationEXT& loc = out->jointLocations[j];
     loc.pose.position = xr::to_xr(pos[j]);
     loc.pose.orientation = xr::to_xr(Eigen::Quaterniond(rot[j]).normalized());
-    loc.radius = is_tip(j) ? 0.008f : 0.01f;
+    loc.radius = joint_radius(j);
     loc.locationFlags = XR_SPACE_LOCATION_ORIENTATION_VALID_BIT | XR_SPACE_LOCATION_POSITION_VALID_BIT;
     if (joint_tracked(world, j))
       loc.locationFlags |= XR_SPACE_LOCATION_ORIENTATION_TRACKED_BIT | XR_SPACE_LOCATION_POSITION_TRACKED_BIT;
@@ -753,7 +685,7 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
     // The later time saturates near INT64_MAX (apps may ask any time).
     const XrTime t0 = info->time - h;
     const XrTime t1 = info->time > std::numeric_limits<XrTime>::max() - h ? info->time : info->time + h;
-    const Pose w0 = hand_at(r, hand, t0), w1 = hand_at(r, hand, t1);
+    const Pose w0 = replayed_hand(series, r.cfg, clock, t0, now), w1 = replayed_hand(series, r.cfg, clock, t1, now);
     joints_in_base(t0, w0, p0, r0);
     joints_in_base(t1, w1, p1, r1);
     for (int j = 0; j < kJointCount; ++j) {
@@ -767,23 +699,8 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
       v.velocityFlags = XR_SPACE_VELOCITY_LINEAR_VALID_BIT | XR_SPACE_VELOCITY_ANGULAR_VALID_BIT;
     }
   }
-  // Injected faults: garbage a buggy runtime might produce, flags untouched.
-  const FaultRates& f = r.cfg.faults;
-  if (f.nan > 0.0 || f.huge > 0.0 || f.quat > 0.0 || f.origin > 0.0 || f.velocity > 0.0) {
-    const int h = hand == XR_HAND_LEFT_EXT ? 0 : 1;
-    for (int j = 0; j < kJointCount; ++j) {
-      XrHandJointLocationEXT& loc = out->jointLocations[j];
-      if (fault_draw(info->time, h, j, 1) < f.nan) loc.pose.position.x = std::numeric_limits<float>::quiet_NaN();
-      if (fault_draw(info->time, h, j, 2) < f.huge) loc.pose.position = {1e30f, -1e30f, 1e30f};
-      if (fault_draw(info->time, h, j, 3) < f.quat) loc.pose.orientation = {0.f, 0.f, 0.f, 0.f};
-      if (fault_draw(info->time, h, j, 6) < f.origin)
-        loc.pose.position = fault_draw(info->time, h, j, 7) < 0.5 ? XrVector3f{0.f, 0.f, 0.f} : XrVector3f{1e-40f, 0.f, -1e-40f};
-      if (vel && fault_draw(info->time, h, j, 8) < f.velocity)
-        vel->jointVelocities[j].linearVelocity =
-            fault_draw(info->time, h, j, 9) < 0.5 ? XrVector3f{1e6f, -1e6f, 1e6f}
-                                                   : XrVector3f{std::numeric_limits<float>::quiet_NaN(), 0.f, 0.f};
-    }
-  }
+  inject_joint_faults(r.cfg.faults, info->time, hand == XR_HAND_LEFT_EXT ? 0 : 1, out->jointLocations,
+                      vel ? vel->jointVelocities : nullptr);
   return XR_SUCCESS;
 }
 

@@ -1,0 +1,102 @@
+// The replay runtime's simulated hand (see shim_hand.hpp).
+#include "shim_hand.hpp"
+
+#include "handsteady/track_ops.hpp"
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace hs::shim {
+
+Pose replayed_hand(const HandSeries& series, const ShimConfig& cfg, const TrackClock& clock, XrTime t, XrTime now) {
+  if (series.empty()) return untracked_pose();
+  switch (cfg.future) {
+    case FuturePolicy::Exact: break;
+    case FuturePolicy::Hold: t = std::min(t, now); break;
+    case FuturePolicy::Latest: t = now; break;
+    case FuturePolicy::Extrapolate: {
+      // The newest capture available now and the one before, on the capture grid.
+      const double period = 1.0 / cfg.capture_hz;
+      const double newest = std::floor(clock.at(std::min(t, now) - cfg.capture_latency_ns) / period) * period;
+      const Pose a = interpolate_pose(series, newest - period), b = interpolate_pose(series, newest);
+      const double ahead = clock.at(t) - newest;
+      if (ahead <= 0.0) return interpolate_pose(series, clock.at(t));
+      if (!any_joint_tracked(b)) return b;
+      Pose out = b + (b - a) * (ahead / period);  // joints missing in a stay missing
+      for (int j = 0; j < kJointCount; ++j)
+        if (!joint_tracked(a, j) && joint_tracked(b, j)) out.row(j) = b.row(j);
+      return out;
+    }
+  }
+  return interpolate_pose(series, clock.at(t));
+}
+
+Pose with_valid_positions(const Pose& p) {
+  Pose out = p;
+  for (int j = 0; j < kJointCount; ++j) {
+    if (joint_tracked(p, j)) continue;
+    int k = j;
+    while (k >= 0 && !joint_tracked(p, k)) k = kXrParent[static_cast<size_t>(k)];
+    if (k < 0) {
+      k = 0;
+      while (k < kJointCount && !joint_tracked(p, k)) ++k;
+    }
+    if (k < kJointCount) out.row(j) = p.row(k);
+    else out.row(j).setZero();
+  }
+  return out;
+}
+
+std::array<Eigen::Matrix3d, kJointCount> joint_frames(const Pose& p, bool left) {
+  std::array<Eigen::Matrix3d, kJointCount> out;
+  const Eigen::Vector3d wrist = p.row(idx(Joint::Wrist)).transpose();
+  const Eigen::Vector3d index = p.row(idx(Joint::IndexProximal)).transpose();
+  const Eigen::Vector3d little = p.row(idx(Joint::LittleProximal)).transpose();
+  Eigen::Vector3d back = (little - wrist).cross(index - wrist);
+  if (left) back = -back;
+  for (int j = 0; j < kJointCount; ++j) {
+    out[j].setIdentity();
+    const auto [a, b] = kXrFrameBone[j];
+    const Eigen::Vector3d bone = (p.row(b) - p.row(a)).transpose();
+    if (!bone.allFinite() || bone.norm() < 1e-9 || !back.allFinite()) continue;
+    const Eigen::Vector3d z = -bone.normalized();
+    Eigen::Vector3d y = back - back.dot(z) * z;
+    if (y.norm() < 1e-9) continue;
+    y.normalize();
+    out[j].col(0) = y.cross(z);
+    out[j].col(1) = y;
+    out[j].col(2) = z;
+  }
+  return out;
+}
+
+double fault_draw(XrTime t, int a, int b, uint64_t salt) {
+  uint64_t x = static_cast<uint64_t>(t) * 0x9E3779B97F4A7C15ull ^ (static_cast<uint64_t>(a) << 40) ^
+               (static_cast<uint64_t>(b) << 48) ^ salt;
+  x ^= x >> 30; x *= 0xBF58476D1CE4E5B9ull;
+  x ^= x >> 27; x *= 0x94D049BB133111EBull;
+  x ^= x >> 31;
+  return static_cast<double>(x >> 11) * 0x1.0p-53;
+}
+
+void inject_joint_faults(const FaultRates& f, XrTime t, int h, XrHandJointLocationEXT* joints,
+                         XrHandJointVelocityEXT* velocities) {
+  if (f.nan <= 0.0 && f.huge <= 0.0 && f.quat <= 0.0 && f.origin <= 0.0 && f.velocity <= 0.0) return;
+  constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+  for (int j = 0; j < kJointCount; ++j) {
+    XrHandJointLocationEXT& loc = joints[j];
+    if (fault_draw(t, h, j, 1) < f.nan) loc.pose.position.x = kNaN;
+    if (fault_draw(t, h, j, 2) < f.huge) loc.pose.position = {1e30f, -1e30f, 1e30f};
+    if (fault_draw(t, h, j, 3) < f.quat) loc.pose.orientation = {0.f, 0.f, 0.f, 0.f};
+    if (fault_draw(t, h, j, 6) < f.origin)
+      loc.pose.position = fault_draw(t, h, j, 7) < 0.5 ? XrVector3f{0.f, 0.f, 0.f} : XrVector3f{1e-40f, 0.f, -1e-40f};
+    if (velocities && fault_draw(t, h, j, 8) < f.velocity)
+      velocities[j].linearVelocity =
+          fault_draw(t, h, j, 9) < 0.5 ? XrVector3f{1e6f, -1e6f, 1e6f} : XrVector3f{kNaN, 0.f, 0.f};
+  }
+}
+
+}  // namespace hs::shim

@@ -1,0 +1,47 @@
+#pragma once
+// The replay runtime's simulated hand: which recorded pose its tracker reports for a
+// query time under each time semantics, the joints' frames and radii, and the garbage
+// injected as faults. Pure functions of the track, the configuration and the times (no
+// handles, no clock, no lock).
+#include <openxr/openxr.h>
+
+#include "handsteady/skeleton.hpp"
+#include "handsteady/track.hpp"
+#include "shim_config.hpp"
+
+#include <Eigen/Core>
+
+#include <array>
+#include <cstdint>
+
+namespace hs::shim {
+
+// XrTime on the runtime's clock -> time in the track (s).
+struct TrackClock {
+  double t0 = 0.0;      // track time at epoch
+  XrTime epoch = 0;
+  double at(XrTime t) const { return t0 + static_cast<double>(t - epoch) * 1e-9; }
+};
+
+// The hand the tracker reports at query time t when the runtime's clock reads now, under
+// cfg.future (world coordinates; untracked joints NaN; an empty series: untracked).
+Pose replayed_hand(const HandSeries& series, const ShimConfig& cfg, const TrackClock& clock, XrTime t, XrTime now);
+
+// Every joint placed: an untracked joint at its nearest tracked ancestor (so that an active
+// hand reports every joint valid, as XR_EXT_hand_tracking requires), else any tracked one.
+Pose with_valid_positions(const Pose& p);
+
+// Joint frames from positions: -Z along the joint's bone (kXrFrameBone), +Y out of the
+// back of the hand; identity where a bone is degenerate.
+std::array<Eigen::Matrix3d, kJointCount> joint_frames(const Pose& p, bool left);
+
+inline float joint_radius(int j) { return is_tip(j) ? 0.008f : 0.01f; }
+
+// Deterministic uniform [0, 1) from (time, a, b, salt): faults repeat for repeated queries.
+double fault_draw(XrTime t, int a, int b, uint64_t salt);
+
+// Garbage a buggy runtime might produce in a joint answer, flags untouched (FaultRates).
+void inject_joint_faults(const FaultRates& f, XrTime t, int hand, XrHandJointLocationEXT* joints,
+                         XrHandJointVelocityEXT* velocities);
+
+}  // namespace hs::shim
