@@ -544,3 +544,54 @@ TEST_CASE("PoseFilter adapter: input 3x the model rate runs 3 interleaved stream
                                             << (a90 - one90).cwiseAbs().maxCoeff() << " m");
   CHECK((a90 - three90).cwiseAbs().maxCoeff() < 0.1 * (a90 - one90).cwiseAbs().maxCoeff());
 }
+
+TEST_CASE("PoseFilter adapter: irregular times near the model rate lock the frames to the samples") {
+  // Runtimes date samples irregularly. On a fixed grid each answer would be extrapolated
+  // from a tick up to a period earlier; locked, each sample is a model frame at its own
+  // time, a missed sample is bridged by an interpolated frame, and a sample less than half
+  // a period after the last frame is answered from the path without becoming a frame.
+  const auto c = small_causal();
+  const auto model = small_model(c, 7);
+  const double dt = 1.0 / c.rate_hz;
+  constexpr int kRows = 30;
+  const auto src = hs::synthetic_hand_input(c, kRows, 41);
+  const auto frame = [&](int n) { return std::span<const float>(src.data() + static_cast<size_t>(n * 78), 78); };
+  auto f = hs::make_stgae_filter(model, 0.0);
+  hs::StgaeStream<float> ref(model->net);
+  double t = 1.0;
+  hs::Pose out;
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> jitter(0.8, 1.2);
+  const auto expect_denoised = [&](const char* what) {
+    CAPTURE(what);
+    double worst = 0.0;
+    for (size_t i = 0; i < 78; ++i)
+      worst = std::max(worst, std::abs(out(static_cast<int>(i / 3), static_cast<int>(i % 3)) - static_cast<double>(ref.denoised()[i])));
+    CHECK(worst < 1e-6);
+  };
+  for (int n = 0; n < kRows; ++n) {
+    CAPTURE(n);
+    if (n == 0) {
+    } else if (n < 4) {
+      t += dt;  // the rate is measured on the first rows
+    } else if (n == 12) {  // one sample missed: two periods
+      t += 2.0 * dt;
+      std::vector<float> mid(78);
+      for (size_t i = 0; i < 78; ++i)
+        mid[i] = static_cast<float>(static_cast<double>(frame(n - 1)[i]) + 0.5 * static_cast<double>(frame(n)[i] - frame(n - 1)[i]));
+      ref.push(std::span<const float>(mid));
+    } else {
+      t += jitter(rng) * dt;
+    }
+    REQUIRE(f->push(t, pose_at(src, n)));
+    ref.push(frame(n));
+    f->estimate(t, out);
+    expect_denoised("each sample is a frame");
+    if (n == 20) {  // a sample 0.3 periods later: not a frame, the path at 0.3 periods
+      REQUIRE(f->push(t + 0.3 * dt, pose_at(src, 0)));
+      f->estimate(t + 0.3 * dt, out);
+      const auto d = static_cast<double>(ref.denoised()[5]);
+      CHECK(out(1, 2) == doctest::Approx(d + 0.3 * (static_cast<double>(ref.predicted(0)[5]) - d)).epsilon(1e-6));
+    }
+  }
+}
