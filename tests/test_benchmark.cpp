@@ -9,6 +9,7 @@
 
 #include "test_support.hpp"
 
+#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include <fstream>
@@ -216,6 +217,16 @@ TEST_CASE("the grid on synthetic motion: noise is what it says, filters are scor
   const std::string md = bench::report_markdown(r, o);
   CHECK(md.find("## synth-test") != std::string::npos);
   CHECK(md.find("## Start and stillness") != std::string::npos);
+  // The summary's raw row: the mean of raw's MPJPE over the noise cells.
+  double raw_sum = 0.0;
+  int raw_n = 0;
+  for (const auto& x : r.results)
+    if (x.method == "raw" && x.cell.block == "noise") {
+      raw_sum += x.at[0].mpjpe_mm;
+      ++raw_n;
+    }
+  REQUIRE(raw_n > 0);
+  CHECK_MESSAGE(md.find(fmt::format("| raw | {:.2f} |", raw_sum / raw_n)) != std::string::npos, md.substr(0, 1500));
   const auto j = nlohmann::json::parse(bench::report_json(r, o));
   CHECK(j["results"].size() == r.results.size());
   CHECK(bench::curve_csv(r).find("oneeuro-sweep") != std::string::npos);

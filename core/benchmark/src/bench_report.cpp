@@ -148,6 +148,57 @@ std::string criteria(const Report& r, const Index& ix) {
   return s;
 }
 
+// One row per method over every noise cell: mean MPJPE and lag, how often it is the best,
+// and the median jitter ratio (a headline; the cells are in the tables below).
+std::string summary(const Report& r, const Index& ix) {
+  const auto cells = cells_of(r, "noise");
+  std::string s = fmt::format(
+      "Over the {} noise cells of the test sets: mean MPJPE (mm), mean lag (ms), cells where the method has the "
+      "lowest MPJPE, and the median jitter / truth's jitter.\n\n",
+      cells.size());
+  s += "| method | H = 0 MPJPE | lag | best | jitter ratio | 20 ms MPJPE | 50 ms MPJPE | best at 50 ms | 50 ms jitter ratio |\n"
+       "|---|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+  std::map<std::string, std::array<int, 2>> best;
+  for (const Cell& c : cells)
+    for (const size_t h : {size_t{0}, size_t{2}}) {
+      std::string who;
+      double lo = std::numeric_limits<double>::infinity();
+      for (const auto& m : r.methods)
+        if (const Metrics* x = at(ix, c, m, h); x && x->mpjpe_mm < lo) {
+          lo = x->mpjpe_mm;
+          who = m;
+        }
+      if (!who.empty()) ++best[who][h == 0 ? 0 : 1];
+    }
+  const auto median = [](std::vector<double> v) {
+    if (v.empty()) return kNaN;
+    std::sort(v.begin(), v.end());
+    return v[v.size() / 2];
+  };
+  for (const auto& m : r.methods) {
+    std::array<double, kHorizonsS.size()> sum{};
+    double lag = 0.0;
+    int n = 0;
+    std::array<std::vector<double>, 2> jit;
+    for (const Cell& c : cells) {
+      std::array<const Metrics*, kHorizonsS.size()> x{};
+      for (size_t h = 0; h < x.size(); ++h) x[h] = at(ix, c, m, h);
+      if (std::find(x.begin(), x.end(), nullptr) != x.end()) continue;
+      for (size_t h = 0; h < x.size(); ++h) sum[h] += x[h]->mpjpe_mm;
+      lag += x[0]->lag_ms;
+      jit[0].push_back(x[0]->jitter_mm / x[0]->truth_jitter_mm);
+      jit[1].push_back(x[2]->jitter_mm / x[2]->truth_jitter_mm);
+      ++n;
+    }
+    if (n == 0) continue;
+    const double k = 1.0 / n;
+    s += fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} | {} |\n", m, num(sum[0] * k, 2), num(lag * k, 1),
+                     best[m][0], num(median(jit[0]), 1), num(sum[1] * k, 2), num(sum[2] * k, 2), best[m][1],
+                     num(median(jit[1]), 1));
+  }
+  return s + "\n";
+}
+
 }  // namespace
 
 std::string report_markdown(const Report& r, const Options& o) {
@@ -167,7 +218,10 @@ std::string report_markdown(const Report& r, const Options& o) {
     s += fmt::format("| {} | {} | {} | {} | {} | {} |\n", d.name, d.split, d.rows, d.rate_hz > 0 ? num(d.rate_hz, 0) : "as recorded",
                      d.truth ? "yes" : "no (scored against itself)", d.source);
 
-  s += "\n## Criteria (Multi-STGAE v2 issue)\n\n";
+  s += "\n## Summary\n\n";
+  s += summary(r, ix);
+
+  s += "## Criteria (Multi-STGAE v2 issue)\n\n";
   s += criteria(r, ix);
 
   s += "## One Euro tuned per noise cell (tuning split, minimum MPJPE at H = 0)\n\n";

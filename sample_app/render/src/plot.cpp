@@ -21,6 +21,17 @@ struct Range {
   double lo = 0.0, hi = 1.0;
 };
 
+// A plot drawn alone into an offscreen context of its size (the renderer is gone before
+// the context).
+template <class Plot, class Draw>
+Image render_offscreen(const Plot& plot, Draw draw) {
+  auto ctx = create_offscreen_context(plot.width, plot.height);
+  Renderer r(*ctx);
+  r.begin_frame(plot.background);
+  draw(r, r.full_frame(), plot);
+  return r.read_pixels();
+}
+
 void check_plot(const TrajectoryPlot& plot) {
   for (const PlotSeries& s : plot.series) {
     if (s.t.size() != s.xyz.size()) {
@@ -267,15 +278,7 @@ void draw_trajectory_plot(Renderer& r, const Viewport& vp, const TrajectoryPlot&
 
 Image render_trajectory_plot(const TrajectoryPlot& plot) {
   check_plot(plot);
-  auto ctx = create_offscreen_context(plot.width, plot.height);
-  Image img;
-  {
-    Renderer r(*ctx);
-    r.begin_frame(plot.background);
-    draw_trajectory_plot(r, r.full_frame(), plot);
-    img = r.read_pixels();
-  }
-  return img;
+  return render_offscreen(plot, draw_trajectory_plot);
 }
 
 void write_trajectory_plot(const std::filesystem::path& path, const TrajectoryPlot& plot) {
@@ -375,15 +378,7 @@ void draw_xy_plot(Renderer& r, const Viewport& vp, const XyPlot& plot) {
 
 Image render_xy_plot(const XyPlot& plot) {
   if (plot.width <= 0 || plot.height <= 0) throw std::invalid_argument("xy plot: width and height must be positive");
-  auto ctx = create_offscreen_context(plot.width, plot.height);
-  Image img;
-  {
-    Renderer r(*ctx);
-    r.begin_frame(plot.background);
-    draw_xy_plot(r, r.full_frame(), plot);
-    img = r.read_pixels();
-  }
-  return img;
+  return render_offscreen(plot, draw_xy_plot);
 }
 
 void write_xy_plot(const std::filesystem::path& path, const XyPlot& plot) { write_png(path, render_xy_plot(plot)); }
