@@ -6,7 +6,7 @@
 #include "handsteady/benchmark.hpp"
 #include "handsteady/error.hpp"
 #include "handsteady/model_path.hpp"
-#include "handsteady/stgae_engine.hpp"
+#include "handsteady/stgae_filter.hpp"
 #include "handsteady/stgae_model.hpp"
 #ifdef HS_HAVE_HANDWRITING
 #include "handsteady/handwriting.hpp"

@@ -9,6 +9,7 @@
 #include "handsteady/filters.hpp"
 #include "handsteady/model_path.hpp"
 #include "handsteady/stgae_engine.hpp"
+#include "handsteady/stgae_filter.hpp"
 #include "handsteady/stgae_model.hpp"
 #include "handsteady/track.hpp"
 

@@ -5,6 +5,7 @@
 // engine's window forward).
 #include "handsteady/model_path.hpp"
 #include "handsteady/stgae_engine.hpp"
+#include "handsteady/stgae_filter.hpp"
 #include "handsteady/stgae_model.hpp"
 #include "handsteady/track.hpp"
 

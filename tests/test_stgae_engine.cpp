@@ -1,6 +1,7 @@
 // Multi-STGAE engine: streaming vs window parity, float vs double, no allocation per
 // frame, translation equivariance, hand-computed tiny models, the PoseFilter adapter.
 #include "handsteady/stgae_engine.hpp"
+#include "handsteady/stgae_filter.hpp"
 
 #include "handsteady/skeleton.hpp"
 #include "test_support.hpp"

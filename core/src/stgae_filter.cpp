@@ -6,6 +6,7 @@
 // and each input row is answered by a freshly denoised frame instead of a prediction up
 // to one model period ahead (whose error shows as a jump at every model tick).
 #include "handsteady/stgae_engine.hpp"
+#include "handsteady/stgae_filter.hpp"
 
 #include <algorithm>
 #include <array>

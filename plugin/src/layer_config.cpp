@@ -1,7 +1,7 @@
 #include "layer_config.hpp"
 
 #include "handsteady/model_path.hpp"
-#include "handsteady/stgae_engine.hpp"
+#include "handsteady/stgae_filter.hpp"
 
 #include <nlohmann/json.hpp>
 

@@ -1,6 +1,6 @@
 #include "tracker_filter.hpp"
 
-#include "handsteady/stgae_engine.hpp"
+#include "handsteady/stgae_filter.hpp"
 
 #include <algorithm>
 #include <chrono>

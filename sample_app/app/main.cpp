@@ -8,7 +8,7 @@
 #include "handsteady/filters.hpp"
 #include "handsteady/ink.hpp"
 #include "handsteady/model_path.hpp"
-#include "handsteady/stgae_engine.hpp"
+#include "handsteady/stgae_filter.hpp"
 #include "handsteady/stgae_model.hpp"
 #include "handsteady/track_ops.hpp"
 #include "handsteady_render/context.hpp"

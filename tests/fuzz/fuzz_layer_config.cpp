@@ -4,7 +4,7 @@
 // choice, so no model is ever loaded.
 #include "layer_config.hpp"
 
-#include "handsteady/stgae_engine.hpp"
+#include "handsteady/stgae_filter.hpp"
 
 #include <cstddef>
 #include <cstdint>

@@ -1,0 +1,29 @@
+#pragma once
+// The Multi-STGAE streaming engine as a PoseFilter: irregular input times onto the model's
+// frames, interleaved streams for input faster than the model, answers at any time along
+// the denoised/predicted path. Design notes: docs/STGAE.md "Streaming at any rate".
+#include "handsteady/filters.hpp"
+#include "handsteady/stgae_model.hpp"
+
+#include <memory>
+
+namespace hs {
+
+// PoseFilter over a causal model: resamples irregular input (20-120 Hz) onto the model's
+// grid by linear interpolation (each time the input passes a grid tick it pushes the
+// interpolated frame). Input faster than the model runs K interleaved streams, each on
+// the model's rate but offset by 1/K period, so each row is answered by a frame denoised
+// at most 1/K period earlier (K = input rate / model rate rounded, measured over the first
+// rows after a (re)start, 1..kStgaeMaxPhases; `phases` > 0 fixes it). Input within 20 %
+// of K times the model rate (irregular times) locks the frames to the samples: each sample
+// is a frame at its own time, missed samples are bridged (docs/STGAE.md). estimate(t):
+// horizon 0 -> the denoised latest model frame, moved by the linear trend to t; horizon >
+// 0 -> the predicted frames interpolated at t + horizon_s. The hand lost (no valid joint)
+// for more than kStgaeGapResetS resets the streams. Throws std::invalid_argument for a
+// centred model, a negative horizon or phases outside 0..kStgaeMaxPhases.
+inline constexpr double kStgaeGapResetS = 0.3;
+inline constexpr int kStgaeMaxPhases = 4;
+std::unique_ptr<PoseFilter> make_stgae_filter(std::shared_ptr<const StgaeModel> model, double horizon_s,
+                                              int phases = 0);
+
+}  // namespace hs
