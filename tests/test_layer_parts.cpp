@@ -225,6 +225,35 @@ TEST_CASE("joint rewrite: weight, smoothing and garbage; an estimate elsewhere r
   CHECK((copy[9].locationFlags & XR_SPACE_LOCATION_POSITION_VALID_BIT) != 0);
 }
 
+TEST_CASE("repair: a garbage joint takes the plausible joint fewest bones away, not the wrist") {
+  std::array<XrHandJointLocationEXT, kJointCount> joints{};
+  const Pose raw = hand_at(0.0);
+  for (int j = 0; j < kJointCount; ++j) {
+    joints[j].pose.position = xr::to_xr(Eigen::Vector3d(raw.row(j).transpose()));
+    joints[j].pose.orientation = {0, 0, 0, 1};
+    joints[j].locationFlags = XR_SPACE_LOCATION_POSITION_VALID_BIT | XR_SPACE_LOCATION_POSITION_TRACKED_BIT |
+                              XR_SPACE_LOCATION_ORIENTATION_VALID_BIT | XR_SPACE_LOCATION_ORIENTATION_TRACKED_BIT;
+  }
+  // The ring finger's metacarpal, proximal and intermediate at the origin, flagged tracked.
+  const int meta = XR_HAND_JOINT_RING_METACARPAL_EXT, prox = XR_HAND_JOINT_RING_PROXIMAL_EXT,
+            inter = XR_HAND_JOINT_RING_INTERMEDIATE_EXT, distal = XR_HAND_JOINT_RING_DISTAL_EXT;
+  for (const int j : {meta, prox, inter}) joints[j].pose.position = {0.f, 0.f, 0.f};
+  const JointMask garbage = garbage_joints(joints.data());
+  CHECK(std::count(garbage.begin(), garbage.end(), true) == 3);
+  CHECK(repair_garbage(garbage, joints.data(), nullptr) == 3);
+  const auto at = [&](int j) { return Eigen::Vector3d(xr::to_eigen(joints[j].pose.position)); };
+  const auto truth = [&](int j) { return Eigen::Vector3d(raw.row(j).transpose()); };
+  CHECK((at(inter) - truth(distal)).norm() < 1e-6);                    // one bone away (the wrist is three)
+  CHECK((at(meta) - truth(XR_HAND_JOINT_WRIST_EXT)).norm() < 1e-6);    // one bone away
+  CHECK((at(prox) - truth(XR_HAND_JOINT_WRIST_EXT)).norm() < 1e-6);    // two either way: the ancestor
+  MESSAGE("ring intermediate repaired " << (at(inter) - truth(inter)).norm() * 1e3 << " mm off; the wrist is "
+                                        << (truth(XR_HAND_JOINT_WRIST_EXT) - truth(inter)).norm() * 1e3 << " mm away");
+  for (const int j : {meta, prox, inter}) {
+    CHECK((joints[j].locationFlags & XR_SPACE_LOCATION_POSITION_TRACKED_BIT) == 0);
+  }
+  CHECK((at(inter) - truth(inter)).norm() < 0.04);
+}
+
 TEST_CASE("repair: non-finite or impossible velocities lose their valid bit") {
   std::array<XrHandJointLocationEXT, kJointCount> joints{};
   std::array<XrHandJointVelocityEXT, kJointCount> vel{};

@@ -22,6 +22,49 @@ Eigen::Vector3d median_centre(const Pose& p) {
   loose.min_joints = 1;
   return gate_joints(copy, loose).centre;
 }
+// Depth of joint j in the hand tree (the root 0).
+int depth(int j) noexcept {
+  int d = 0;
+  for (int k = kXrParent[static_cast<size_t>(j)]; k >= 0; k = kXrParent[static_cast<size_t>(k)]) ++d;
+  return d;
+}
+
+// Bones between joints a and b on the hand tree.
+int hops(int a, int b) noexcept {
+  int da = depth(a), db = depth(b), n = 0;
+  for (; da > db; --da, ++n) a = kXrParent[static_cast<size_t>(a)];
+  for (; db > da; --db, ++n) b = kXrParent[static_cast<size_t>(b)];
+  for (; a != b; n += 2) {
+    a = kXrParent[static_cast<size_t>(a)];
+    b = kXrParent[static_cast<size_t>(b)];
+  }
+  return n;
+}
+
+bool is_ancestor(int a, int j) noexcept {
+  for (int k = kXrParent[static_cast<size_t>(j)]; k >= 0; k = kXrParent[static_cast<size_t>(k)])
+    if (k == a) return true;
+  return false;
+}
+
+// The plausible joint fewest bones from j, up or down the hand tree (a finger whose base
+// is garbage takes its own next joint, not the wrist 10 cm away); on a tie the ancestor.
+// -1 when no joint is plausible.
+int nearest_plausible(const JointMask& garbage, int j) noexcept {
+  int best = -1, best_hops = 0;
+  bool best_up = false;
+  for (int k = 0; k < kJointCount; ++k) {
+    if (garbage[static_cast<size_t>(k)] || k == j) continue;
+    const int h = hops(j, k);
+    const bool up = is_ancestor(k, j);
+    if (best < 0 || h < best_hops || (h == best_hops && up && !best_up)) {
+      best = k;
+      best_hops = h;
+      best_up = up;
+    }
+  }
+  return best;
+}
 }  // namespace
 
 JointMask garbage_joints(const XrHandJointLocationEXT* joints) noexcept {
@@ -41,16 +84,12 @@ JointMask garbage_joints(const XrHandJointLocationEXT* joints) noexcept {
 
 int repair_garbage(const JointMask& garbage, XrHandJointLocationEXT* joints, XrHandJointVelocityEXT* velocities) noexcept {
   const auto& parent = kXrParent;
-  int changed = 0;
+  int changed = 0;  // sources are never garbage, so never a joint repaired here
   for (int j = 0; j < kJointCount; ++j) {
     XrHandJointLocationEXT& loc = joints[j];
     if (garbage[j]) {
-      int k = parent[j];
-      while (k >= 0 && garbage[k]) k = parent[k];
-      if (k < 0)
-        for (k = 0; k < kJointCount && garbage[k]; ++k) {
-        }
-      if (k < kJointCount && k >= 0) loc.pose.position = joints[k].pose.position;
+      const int k = nearest_plausible(garbage, j);
+      if (k >= 0) loc.pose.position = joints[k].pose.position;
       else loc.pose.position = {0.0f, 0.0f, 0.0f};  // no plausible joint at all: a defined value
       loc.locationFlags &= ~static_cast<XrSpaceLocationFlags>(XR_SPACE_LOCATION_POSITION_TRACKED_BIT);
       ++changed;

@@ -43,7 +43,8 @@ RewriteStats rewrite_joints(const Answer& answer, double smoothing, const xr::Ri
                             XrHandJointLocationEXT* joints, XrHandJointVelocityEXT* velocities) noexcept;
 
 // What the app gets is never garbage, even where the layer passes the runtime through:
-// a garbage position becomes its nearest plausible ancestor's (valid, no longer tracked),
+// a garbage position becomes that of the plausible joint fewest bones away (up or down the
+// hand tree, the ancestor on a tie; valid, no longer tracked),
 // an unusable orientation its parent's (likewise), a non-finite or impossible velocity
 // loses its valid bit. Returns the number of joints changed.
 int repair_garbage(const JointMask& garbage, XrHandJointLocationEXT* joints, XrHandJointVelocityEXT* velocities) noexcept;
