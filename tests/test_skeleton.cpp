@@ -138,3 +138,18 @@ TEST_CASE("reference graphs: NYU-36 and SHREC-22 edge counts") {
   CHECK(&skeleton_by_name("shrec22") == &sh);
   CHECK_THROWS_AS(skeleton_by_name("mano"), std::invalid_argument);
 }
+
+TEST_CASE("hand tree distances from the topology table") {
+  using hs::idx;
+  using hs::Joint;
+  CHECK(hs::xr_depth(idx(Joint::Wrist)) == 0);
+  CHECK(hs::xr_depth(idx(Joint::RingIntermediate)) == 3);
+  CHECK(hs::xr_bones_between(idx(Joint::RingIntermediate), idx(Joint::Wrist)) == 3);
+  CHECK(hs::xr_bones_between(idx(Joint::RingIntermediate), idx(Joint::RingDistal)) == 1);
+  CHECK(hs::xr_bones_between(idx(Joint::IndexTip), idx(Joint::ThumbTip)) == 9);
+  CHECK(hs::xr_bones_between(idx(Joint::Palm), idx(Joint::Palm)) == 0);
+  CHECK(hs::xr_is_ancestor(idx(Joint::Wrist), idx(Joint::LittleTip)));
+  CHECK(hs::xr_is_ancestor(idx(Joint::LittleProximal), idx(Joint::LittleTip)));
+  CHECK_FALSE(hs::xr_is_ancestor(idx(Joint::LittleTip), idx(Joint::LittleProximal)));
+  CHECK_FALSE(hs::xr_is_ancestor(idx(Joint::Palm), idx(Joint::IndexTip)));
+}

@@ -22,31 +22,6 @@ Eigen::Vector3d median_centre(const Pose& p) {
   loose.min_joints = 1;
   return gate_joints(copy, loose).centre;
 }
-// Depth of joint j in the hand tree (the root 0).
-int depth(int j) noexcept {
-  int d = 0;
-  for (int k = kXrParent[static_cast<size_t>(j)]; k >= 0; k = kXrParent[static_cast<size_t>(k)]) ++d;
-  return d;
-}
-
-// Bones between joints a and b on the hand tree.
-int hops(int a, int b) noexcept {
-  int da = depth(a), db = depth(b), n = 0;
-  for (; da > db; --da, ++n) a = kXrParent[static_cast<size_t>(a)];
-  for (; db > da; --db, ++n) b = kXrParent[static_cast<size_t>(b)];
-  for (; a != b; n += 2) {
-    a = kXrParent[static_cast<size_t>(a)];
-    b = kXrParent[static_cast<size_t>(b)];
-  }
-  return n;
-}
-
-bool is_ancestor(int a, int j) noexcept {
-  for (int k = kXrParent[static_cast<size_t>(j)]; k >= 0; k = kXrParent[static_cast<size_t>(k)])
-    if (k == a) return true;
-  return false;
-}
-
 // The plausible joint fewest bones from j, up or down the hand tree (a finger whose base
 // is garbage takes its own next joint, not the wrist 10 cm away); on a tie the ancestor.
 // -1 when no joint is plausible.
@@ -55,8 +30,8 @@ int nearest_plausible(const JointMask& garbage, int j) noexcept {
   bool best_up = false;
   for (int k = 0; k < kJointCount; ++k) {
     if (garbage[static_cast<size_t>(k)] || k == j) continue;
-    const int h = hops(j, k);
-    const bool up = is_ancestor(k, j);
+    const int h = xr_bones_between(j, k);
+    const bool up = xr_is_ancestor(k, j);
     if (best < 0 || h < best_hops || (h == best_hops && up && !best_up)) {
       best = k;
       best_hops = h;
@@ -84,7 +59,7 @@ JointMask garbage_joints(const XrHandJointLocationEXT* joints) noexcept {
 
 int repair_garbage(const JointMask& garbage, XrHandJointLocationEXT* joints, XrHandJointVelocityEXT* velocities) noexcept {
   const auto& parent = kXrParent;
-  int changed = 0;  // sources are never garbage, so never a joint repaired here
+  int changed = 0;  // a position is taken only from a joint not garbage, never from one repaired here
   for (int j = 0; j < kJointCount; ++j) {
     XrHandJointLocationEXT& loc = joints[j];
     if (garbage[j]) {

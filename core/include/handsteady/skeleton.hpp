@@ -46,6 +46,32 @@ constexpr bool is_tip(int j) {
   return true;
 }
 
+// Bones from joint j up to the wrist.
+constexpr int xr_depth(int j) {
+  int d = 0;
+  for (int k = kXrParent[static_cast<size_t>(j)]; k >= 0; k = kXrParent[static_cast<size_t>(k)]) ++d;
+  return d;
+}
+
+// Whether a lies on the path from joint j up to the wrist (j itself excluded).
+constexpr bool xr_is_ancestor(int a, int j) {
+  for (int k = kXrParent[static_cast<size_t>(j)]; k >= 0; k = kXrParent[static_cast<size_t>(k)])
+    if (k == a) return true;
+  return false;
+}
+
+// Bones between joints a and b on the hand tree (up to their common ancestor and down).
+constexpr int xr_bones_between(int a, int b) {
+  int da = xr_depth(a), db = xr_depth(b), n = 0;
+  for (; da > db; --da, ++n) a = kXrParent[static_cast<size_t>(a)];
+  for (; db > da; --db, ++n) b = kXrParent[static_cast<size_t>(b)];
+  for (; a != b; n += 2) {
+    a = kXrParent[static_cast<size_t>(a)];
+    b = kXrParent[static_cast<size_t>(b)];
+  }
+  return n;
+}
+
 // The bone (from, to) along which joint j's -Z axis points in XR_EXT_hand_tracking:
 // towards the next joint of its finger; tips use the bone that ends at them; the wrist
 // points at the middle metacarpal and the palm at the middle proximal joint.
