@@ -64,8 +64,7 @@ struct Runtime {
   bool ext_hand = false, ext_headless = false, ext_timespec = false;
   ShimConfig cfg;
   std::array<HandSeries, 2> hands;
-  double t0 = 0.0;             // track time mapped to epoch
-  XrTime epoch = kSimEpochNs;  // XrTime of t0
+  TrackClock clock{0.0, kSimEpochNs};  // XrTime -> track time (t0 at epoch)
   XrTime sim_now = kSimEpochNs;
   XrTime mono_at_tick = 0;     // sim clock: CLOCK_MONOTONIC when sim_now last advanced
   int64_t real_offset = 0;     // real clock: XrTime = CLOCK_MONOTONIC - real_offset
@@ -101,7 +100,7 @@ XrTime monotonic_to_xr(const Runtime& r, XrTime mono) {
   return r.sim_now + std::clamp<XrTime>(mono - r.mono_at_tick, 0, r.cfg.period_ns - 1);
 }
 
-double track_time(const Runtime& r, XrTime t) { return r.t0 + static_cast<double>(t - r.epoch) * 1e-9; }
+double track_time(const Runtime& r, XrTime t) { return r.clock.at(t); }
 
 Rigid yaw_pitch(double yaw, double pitch, const Eigen::Vector3d& pos) {
   Rigid r = Rigid::Identity();
@@ -225,11 +224,11 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateInstance(const XrInstanceCreateInfo* info, 
   double t0 = std::numeric_limits<double>::infinity();
   for (const auto& s : r.hands)
     if (!s.empty()) t0 = std::min(t0, s.t.front());
-  r.t0 = std::isfinite(t0) ? t0 : 0.0;
+  r.clock.t0 = std::isfinite(t0) ? t0 : 0.0;
   const XrTime mono = monotonic_ns();
-  r.epoch = r.cfg.epoch_ns.value_or(r.cfg.real_clock ? mono : kSimEpochNs);
-  r.real_offset = mono - r.epoch;
-  r.sim_now = r.epoch;
+  r.clock.epoch = r.cfg.epoch_ns.value_or(r.cfg.real_clock ? mono : kSimEpochNs);
+  r.real_offset = mono - r.clock.epoch;
+  r.sim_now = r.clock.epoch;
   r.mono_at_tick = monotonic_ns();
   r.ext_hand = hand;
   r.ext_headless = headless;
@@ -476,7 +475,7 @@ XRAPI_ATTR XrResult XRAPI_CALL WaitFrame(XrSession session, const XrFrameWaitInf
   if (r.cfg.real_clock) {
     // Sleep to the next period boundary since the epoch (without holding the lock).
     const int64_t period = r.cfg.period_ns;
-    const XrTime epoch = r.epoch;
+    const XrTime epoch = r.clock.epoch;
     const int64_t offset = r.real_offset;
     lock.unlock();
     const XrTime t = monotonic_ns() - offset;
@@ -643,9 +642,8 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
 
   const XrHandEXT hand = tr->second.hand;
   const auto& series = r.hands[hand == XR_HAND_LEFT_EXT ? 0 : 1];
-  const TrackClock clock{r.t0, r.epoch};
   const XrTime now = now_locked(r);
-  const Pose world = replayed_hand(series, r.cfg, clock, info->time, now);
+  const Pose world = replayed_hand(series, r.cfg, r.clock, info->time, now);
   if (!any_joint_tracked(world)) {
     out->isActive = XR_FALSE;
     for (uint32_t j = 0; j < out->jointCount; ++j) out->jointLocations[j].locationFlags = 0;
@@ -685,7 +683,7 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
     // The later time saturates near INT64_MAX (apps may ask any time).
     const XrTime t0 = info->time - h;
     const XrTime t1 = info->time > std::numeric_limits<XrTime>::max() - h ? info->time : info->time + h;
-    const Pose w0 = replayed_hand(series, r.cfg, clock, t0, now), w1 = replayed_hand(series, r.cfg, clock, t1, now);
+    const Pose w0 = replayed_hand(series, r.cfg, r.clock, t0, now), w1 = replayed_hand(series, r.cfg, r.clock, t1, now);
     joints_in_base(t0, w0, p0, r0);
     joints_in_base(t1, w1, p1, r1);
     for (int j = 0; j < kJointCount; ++j) {
