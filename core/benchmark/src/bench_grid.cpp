@@ -57,26 +57,31 @@ Track merge_hands(const Track& a, const Track& b) {
   return out;
 }
 
-// Track CSVs of a folder whose file names pass keep(), sorted, concatenated as takes.
-Track csv_takes(const fs::path& dir, const std::function<bool(const std::string&)>& keep) {
+// The .csv files of a folder whose names pass keep(), sorted.
+std::vector<fs::path> csv_files(const fs::path& dir, const std::function<bool(const std::string&)>& keep) {
   std::vector<fs::path> files;
   for (const auto& e : fs::directory_iterator(dir))
     if (e.is_regular_file() && e.path().extension() == ".csv" && keep(e.path().filename().string()))
       files.push_back(e.path());
   std::sort(files.begin(), files.end());
+  return files;
+}
+
+// Those files, each read by read(), concatenated as takes.
+Track folder_takes(const fs::path& dir, const std::function<bool(const std::string&)>& keep,
+                   const std::function<Track(const fs::path&)>& read) {
+  const std::vector<fs::path> files = csv_files(dir, keep);
   if (files.empty()) throw InputError({dir.string(), 0, ""}, "no track CSV selected in this folder");
   std::vector<Track> takes;
   std::vector<std::string> names;
   for (const auto& f : files) {
-    takes.push_back(read_track_csv(f));
+    takes.push_back(read(f));
     names.push_back(f.filename().string());
   }
   return concatenate_takes(takes, names);
 }
-
-bool starts_with(const std::string& s, std::string_view p) { return s.rfind(p, 0) == 0; }
-bool ends_with(const std::string& s, std::string_view p) {
-  return s.size() >= p.size() && s.compare(s.size() - p.size(), p.size(), p) == 0;
+Track csv_takes(const fs::path& dir, const std::function<bool(const std::string&)>& keep) {
+  return folder_takes(dir, keep, [](const fs::path& f) { return read_track_csv(f); });
 }
 
 CorruptionConfig tracker(const TrackerCorruption& t) {
@@ -137,7 +142,7 @@ std::vector<Dataset> load_datasets(const fs::path& data_dir, bool quick, std::ve
     return merge_hands(import_bvh(manip / "cup1_leftHand.bvh"), import_bvh(manip / "cup1_rightHand.bvh"));
   });
   add("leap-guinevere-s03", Split::Tuning, true, 90.0, "leap/guinevere/s03_*",
-      [&] { return csv_takes(leap / "guinevere", [](const std::string& f) { return starts_with(f, "s03_"); }); });
+      [&] { return csv_takes(leap / "guinevere", [](const std::string& f) { return f.starts_with("s03_"); }); });
   // Test split.
   add("fpha-s5", Split::Test, true, 30.0, "fpha/Subject_5", [&] { return import_fpha(data_dir / "fpha" / "Subject_5"); },
       true);
@@ -145,37 +150,22 @@ std::vector<Dataset> load_datasets(const fs::path& data_dir, bool quick, std::ve
     return merge_hands(import_bvh(manip / "mug3_leftHand.bvh"), import_bvh(manip / "mug3_rightHand.bvh"));
   });
   add("leap-gestures-s04", Split::Test, true, 90.0, "leap/guinevere/s04_*",
-      [&] { return csv_takes(leap / "guinevere", [](const std::string& f) { return starts_with(f, "s04_"); }); }, true);
+      [&] { return csv_takes(leap / "guinevere", [](const std::string& f) { return f.starts_with("s04_"); }); }, true);
   add("leap-handwriting", Split::Test, true, 90.0, "leap/fmkit_handwriting/*_10, fmcode, fmhash", [&] {
     return csv_takes(leap / "fmkit_handwriting", [](const std::string& f) {
-      return ends_with(f, "_10.csv") || starts_with(f, "fmcode") || starts_with(f, "fmhash");
+      return f.ends_with("_10.csv") || f.starts_with("fmcode") || f.starts_with("fmhash");
     });
   });
   add("hololens2", Split::Test, false, 0.0, "hololens2/*.csv", [&] {
-    std::vector<Track> takes;
-    std::vector<std::string> names;
-    std::vector<fs::path> files;
-    for (const auto& e : fs::directory_iterator(data_dir / "hololens2"))
-      if (e.path().extension() == ".csv") files.push_back(e.path());
-    std::sort(files.begin(), files.end());
-    for (const auto& f : files) {
-      takes.push_back(import_mrtk(f));
-      names.push_back(f.filename().string());
-    }
-    if (takes.empty()) throw InputError({(data_dir / "hololens2").string(), 0, ""}, "no recording");
-    return concatenate_takes(takes, names);
+    return folder_takes(data_dir / "hololens2", [](const std::string&) { return true; },
+                        [](const fs::path& f) { return import_mrtk(f); });
   });
   // Data added later: every track CSV under benchmark/, one test set each.
   const fs::path extra = data_dir / "benchmark";
-  if (fs::is_directory(extra)) {
-    std::vector<fs::path> files;
-    for (const auto& e : fs::directory_iterator(extra))
-      if (e.path().extension() == ".csv") files.push_back(e.path());
-    std::sort(files.begin(), files.end());
-    for (const auto& f : files)
+  if (fs::is_directory(extra))
+    for (const auto& f : csv_files(extra, [](const std::string&) { return true; }))
       add("extra-" + f.stem().string(), Split::Test, true, 90.0, "benchmark/" + f.filename().string(),
           [f] { return read_track_csv(f); });
-  }
   return out;
 }
 
