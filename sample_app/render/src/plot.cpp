@@ -115,6 +115,81 @@ float draw_legend(Renderer& r, const std::vector<LegendEntry>& entries, float y,
   return y;
 }
 
+// What both plot kinds share: the layout unit (u: 1 at 1200 px wide and `height_units`
+// high), colours and text styles.
+struct PlotLook {
+  float W = 0.0f, H = 0.0f, u = 1.0f, tick_len = 5.0f;
+  Color ink = Color::rgb8(30, 30, 30), grid = Color::rgb8(225, 225, 225);
+  TextStyle title, legend, tick, label;
+};
+PlotLook plot_look(const Viewport& vp, float height_units) {
+  PlotLook k;
+  k.W = static_cast<float>(vp.width);
+  k.H = static_cast<float>(vp.height);
+  k.u = std::clamp(std::min(k.W / 1200.0f, k.H / height_units), 0.35f, 4.0f);
+  const float u = k.u;
+  k.tick_len = 5.0f * u;
+  k.title = {22.0f * u, k.ink, 2.0f * u, Align::Center, VAlign::Top};
+  k.legend = {14.0f * u, k.ink, 1.4f * u, Align::Left, VAlign::Middle};
+  k.tick = {12.0f * u, k.ink, 1.2f * u, Align::Right, VAlign::Middle};
+  k.label = {15.0f * u, k.ink, 1.4f * u, Align::Center, VAlign::Middle, 90.0f};
+  return k;
+}
+
+// Title and legend from the top; returns the y below them.
+float draw_header(Renderer& r, const PlotLook& k, const std::string& title, const std::vector<LegendEntry>& entries) {
+  float y = 12.0f * k.u;
+  if (!title.empty()) {
+    const Box b = r.text(title, {0.5f * k.W, y}, k.title);
+    y = b.y + b.height + 10.0f * k.u;
+  }
+  return draw_legend(r, entries, y, k.W, k.u, k.legend);
+}
+
+// An axes box: where it is, its ranges and tick steps.
+struct Axes {
+  float left = 0.0f, top = 0.0f, w = 1.0f, h = 1.0f;
+  Range xr, yr;
+  double x_step = 1.0, y_step = 1.0;
+  float px(double v) const { return left + static_cast<float>((v - xr.lo) / (xr.hi - xr.lo)) * w; }
+  float py(double v) const { return top + (1.0f - static_cast<float>((v - yr.lo) / (yr.hi - yr.lo))) * h; }
+};
+
+// Room left of the boxes for the y label and tick numbers `label_w` wide, and below the
+// lowest box for the x numbers and label.
+float axes_left(const PlotLook& k, float label_w) {
+  return std::round(8.0f * k.u + k.label.size_px * 1.6f + 8.0f * k.u + label_w + k.tick_len + 4.0f * k.u);
+}
+float axes_bottom_margin(const PlotLook& k) { return 12.0f * k.u + k.tick.size_px + 14.0f * k.u + k.label.size_px + 10.0f * k.u; }
+
+void draw_grid(Renderer& r, const PlotLook& k, const Axes& a) {
+  for (const double v : ticks(a.xr, a.x_step)) r.line2d({a.px(v), a.top}, {a.px(v), a.top + a.h}, k.grid, 1.0f * k.u);
+  for (const double v : ticks(a.yr, a.y_step)) r.line2d({a.left, a.py(v)}, {a.left + a.w, a.py(v)}, k.grid, 1.0f * k.u);
+}
+
+// The box's frame, y ticks with numbers, x tick marks and the y label; with an x label
+// (the lowest box) also the x numbers and the label under them.
+void draw_axes(Renderer& r, const PlotLook& k, const Axes& a, const std::string& y_label, const std::string* x_label) {
+  const float u = k.u;
+  r.stroke_rect(a.left, a.top, a.w, a.h, k.ink, 1.5f * u);
+  for (const double v : ticks(a.yr, a.y_step)) {
+    r.line2d({a.left - k.tick_len, a.py(v)}, {a.left, a.py(v)}, k.ink, 1.2f * u);
+    r.text(tick_label(v, a.y_step), {a.left - k.tick_len - 4.0f * u, a.py(v)}, k.tick);
+  }
+  const std::vector<double> x_ticks = ticks(a.xr, a.x_step);
+  for (const double v : x_ticks) r.line2d({a.px(v), a.top + a.h}, {a.px(v), a.top + a.h + k.tick_len}, k.ink, 1.2f * u);
+  r.text(y_label, {8.0f * u + 0.8f * k.label.size_px, a.top + 0.5f * a.h}, k.label);
+  if (!x_label) return;
+  TextStyle xt = k.tick;
+  xt.align = Align::Center;
+  xt.valign = VAlign::Top;
+  for (const double v : x_ticks) r.text(tick_label(v, a.x_step), {a.px(v), a.top + a.h + k.tick_len + 6.0f * u}, xt);
+  TextStyle xs = k.label;
+  xs.angle_deg = 0.0f;
+  xs.valign = VAlign::Top;
+  r.text(*x_label, {a.left + 0.5f * a.w, a.top + a.h + k.tick_len + 6.0f * u + xt.size_px + 12.0f * u}, xs);
+}
+
 }  // namespace
 
 PlotSeries joint_series(std::string label, Color color, const std::vector<double>& t,
@@ -143,13 +218,8 @@ void draw_trajectory_plot(Renderer& r, const Viewport& vp, const TrajectoryPlot&
   check_plot(plot);
   r.set_viewport(vp);
   r.clear_viewport(plot.background);
-  const float W = static_cast<float>(vp.width), H = static_cast<float>(vp.height);
-  const float u = std::clamp(std::min(W / 1200.0f, H / 900.0f), 0.35f, 4.0f);  // layout unit
-  const Color ink = Color::rgb8(30, 30, 30), grid = Color::rgb8(225, 225, 225);
-  const TextStyle title_style{22.0f * u, ink, 2.0f * u, Align::Center, VAlign::Top};
-  const TextStyle legend_style{14.0f * u, ink, 1.4f * u, Align::Left, VAlign::Middle};
-  TextStyle tick_style{12.0f * u, ink, 1.2f * u, Align::Right, VAlign::Middle};
-  const TextStyle label_style{15.0f * u, ink, 1.4f * u, Align::Center, VAlign::Middle, 90.0f};
+  const PlotLook look = plot_look(vp, 900.0f);
+  const float u = look.u;
   const double scale = plot.millimetres ? 1000.0 : 1.0;
   const std::string unit = plot.millimetres ? "mm" : "m";
 
@@ -175,54 +245,38 @@ void draw_trajectory_plot(Renderer& r, const Viewport& vp, const TrajectoryPlot&
   const double t_step = nice_step(tr.hi - tr.lo, 8);
   Range vr[3];
   double v_step[3];
-  std::vector<std::string> labels[3];
   float label_w = 0.0f;
   for (int k = 0; k < 3; ++k) {
     vr[k] = padded(v_lo[k], v_hi[k], -1.0, 1.0, 0.06);
     v_step[k] = nice_step(vr[k].hi - vr[k].lo, 4);
-    for (double v : ticks(vr[k], v_step[k])) {
-      labels[k].push_back(tick_label(v, v_step[k]));
-      label_w = std::max(label_w, r.measure_text(labels[k].back(), {0.0f, 0.0f}, tick_style).width);
-    }
+    for (double v : ticks(vr[k], v_step[k]))
+      label_w = std::max(label_w, r.measure_text(tick_label(v, v_step[k]), {0.0f, 0.0f}, look.tick).width);
   }
 
-  // Layout (overlay pixels of vp).
-  float y = 12.0f * u;
-  if (!plot.title.empty()) {
-    const Box b = r.text(plot.title, {0.5f * W, y}, title_style);
-    y = b.y + b.height + 10.0f * u;
-  }
-  {
-    std::vector<LegendEntry> entries;
-    for (const PlotSeries& s : plot.series) entries.push_back({s.label, s.color, std::max(s.width_px, 2.0f), false});
-    y = draw_legend(r, entries, y, W, u, legend_style);
-  }
-  const float tick_len = 5.0f * u;
-  const float left = std::round(8.0f * u + label_style.size_px * 1.6f + 8.0f * u + label_w + tick_len + 4.0f * u);
-  const float right = std::round(W - 24.0f * u);
+  // Layout (overlay pixels of vp): three boxes sharing the time axis.
+  std::vector<LegendEntry> entries;
+  for (const PlotSeries& s : plot.series) entries.push_back({s.label, s.color, std::max(s.width_px, 2.0f), false});
+  const float y = draw_header(r, look, plot.title, entries);
+  const float left = axes_left(look, label_w);
+  const float right = std::round(look.W - 24.0f * u);
   const float top = std::round(y + 8.0f * u);
-  const float bottom_margin = 12.0f * u + tick_style.size_px + 14.0f * u + label_style.size_px + 10.0f * u;
   const float gap = std::round(16.0f * u);
-  const float sub_h = std::max(1.0f, std::floor((H - top - bottom_margin - 2.0f * gap) / 3.0f));
+  const float sub_h = std::max(1.0f, std::floor((look.H - top - axes_bottom_margin(look) - 2.0f * gap) / 3.0f));
   const float plot_w = std::max(1.0f, right - left);
-  const std::vector<double> t_ticks = ticks(tr, t_step);
 
   for (int k = 0; k < 3; ++k) {
-    const float y0 = top + static_cast<float>(k) * (sub_h + gap);
-    auto px = [&](double t) { return left + static_cast<float>((t - tr.lo) / (tr.hi - tr.lo)) * plot_w; };
-    auto py = [&](double v) {
-      return y0 + (1.0f - static_cast<float>((v - vr[k].lo) / (vr[k].hi - vr[k].lo))) * sub_h;
-    };
-    // Grid.
-    for (double t : t_ticks) {
-      r.line2d({px(t), y0}, {px(t), y0 + sub_h}, grid, 1.0f * u);
-    }
-    const std::vector<double> v_ticks = ticks(vr[k], v_step[k]);
-    for (double v : v_ticks) {
-      r.line2d({left, py(v)}, {left + plot_w, py(v)}, grid, 1.0f * u);
-    }
+    Axes a;
+    a.left = left;
+    a.top = top + static_cast<float>(k) * (sub_h + gap);
+    a.w = plot_w;
+    a.h = sub_h;
+    a.xr = tr;
+    a.x_step = t_step;
+    a.yr = vr[k];
+    a.y_step = v_step[k];
+    draw_grid(r, look, a);
     // Series, clipped to the subplot (its own viewport: coordinates relative to it).
-    const Viewport clip{vp.x + static_cast<int>(left), vp.y + static_cast<int>(y0), static_cast<int>(plot_w),
+    const Viewport clip{vp.x + static_cast<int>(left), vp.y + static_cast<int>(a.top), static_cast<int>(plot_w),
                         static_cast<int>(sub_h)};
     if (clip.width > 0 && clip.height > 0 && clip.x + clip.width <= vp.x + vp.width &&
         clip.y + clip.height <= vp.y + vp.height) {
@@ -243,36 +297,13 @@ void draw_trajectory_plot(Renderer& r, const Viewport& vp, const TrajectoryPlot&
             flush();
             continue;
           }
-          run.emplace_back(px(s.t[i]) - left, py(v) - y0);
+          run.emplace_back(a.px(s.t[i]) - left, a.py(v) - a.top);
         }
         flush();
       }
       r.set_viewport(vp);
     }
-    // Frame, ticks, numbers, axis label.
-    r.stroke_rect(left, y0, plot_w, sub_h, ink, 1.5f * u);
-    for (size_t i = 0; i < v_ticks.size(); ++i) {
-      const float yy = py(v_ticks[i]);
-      r.line2d({left - tick_len, yy}, {left, yy}, ink, 1.2f * u);
-      r.text(labels[k][i], {left - tick_len - 4.0f * u, yy}, tick_style);
-    }
-    for (double t : t_ticks) {
-      r.line2d({px(t), y0 + sub_h}, {px(t), y0 + sub_h + tick_len}, ink, 1.2f * u);
-    }
-    r.text(plot.axis_names[static_cast<size_t>(k)] + " (" + unit + ")",
-           {8.0f * u + 0.8f * label_style.size_px, y0 + 0.5f * sub_h}, label_style);
-    if (k == 2) {
-      TextStyle ts = tick_style;
-      ts.align = Align::Center;
-      ts.valign = VAlign::Top;
-      for (double t : t_ticks) {
-        r.text(tick_label(t, t_step), {px(t), y0 + sub_h + tick_len + 6.0f * u}, ts);
-      }
-      TextStyle xs = label_style;
-      xs.angle_deg = 0.0f;
-      xs.valign = VAlign::Top;
-      r.text(plot.time_label, {left + 0.5f * plot_w, y0 + sub_h + tick_len + 6.0f * u + ts.size_px + 12.0f * u}, xs);
-    }
+    draw_axes(r, look, a, plot.axis_names[static_cast<size_t>(k)] + " (" + unit + ")", k == 2 ? &plot.time_label : nullptr);
   }
 }
 
@@ -292,13 +323,8 @@ void draw_xy_plot(Renderer& r, const Viewport& vp, const XyPlot& plot) {
                                   std::to_string(s.y.size()) + " y");
   r.set_viewport(vp);
   r.clear_viewport(plot.background);
-  const float W = static_cast<float>(vp.width), H = static_cast<float>(vp.height);
-  const float u = std::clamp(std::min(W / 1200.0f, H / 800.0f), 0.35f, 4.0f);
-  const Color ink = Color::rgb8(30, 30, 30), grid = Color::rgb8(225, 225, 225);
-  const TextStyle title_style{22.0f * u, ink, 2.0f * u, Align::Center, VAlign::Top};
-  const TextStyle legend_style{14.0f * u, ink, 1.4f * u, Align::Left, VAlign::Middle};
-  const TextStyle tick_style{12.0f * u, ink, 1.2f * u, Align::Right, VAlign::Middle};
-  const TextStyle label_style{15.0f * u, ink, 1.4f * u, Align::Center, VAlign::Middle, 90.0f};
+  const PlotLook look = plot_look(vp, 800.0f);
+  const float u = look.u;
 
   double x_lo = kNaN, x_hi = kNaN, y_lo = kNaN, y_hi = kNaN;
   for (const XySeries& s : plot.series)
@@ -310,32 +336,24 @@ void draw_xy_plot(Renderer& r, const Viewport& vp, const XyPlot& plot) {
       y_hi = std::isnan(y_hi) ? s.y[i] : std::max(y_hi, s.y[i]);
     }
   if (plot.y_from_zero && y_lo > 0.0) y_lo = 0.0;
-  const Range xr = padded(x_lo, x_hi, 0.0, 1.0, 0.05), yr = padded(y_lo, y_hi, 0.0, 1.0, 0.05);
-  const double x_step = nice_step(xr.hi - xr.lo, 8), y_step = nice_step(yr.hi - yr.lo, 6);
-  const std::vector<double> x_ticks = ticks(xr, x_step), y_ticks = ticks(yr, y_step);
+  Axes a;
+  a.xr = padded(x_lo, x_hi, 0.0, 1.0, 0.05);
+  a.yr = padded(y_lo, y_hi, 0.0, 1.0, 0.05);
+  a.x_step = nice_step(a.xr.hi - a.xr.lo, 8);
+  a.y_step = nice_step(a.yr.hi - a.yr.lo, 6);
   float label_w = 0.0f;
-  for (const double v : y_ticks) label_w = std::max(label_w, r.measure_text(tick_label(v, y_step), {0.0f, 0.0f}, tick_style).width);
+  for (const double v : ticks(a.yr, a.y_step))
+    label_w = std::max(label_w, r.measure_text(tick_label(v, a.y_step), {0.0f, 0.0f}, look.tick).width);
 
-  float y = 12.0f * u;
-  if (!plot.title.empty()) {
-    const Box b = r.text(plot.title, {0.5f * W, y}, title_style);
-    y = b.y + b.height + 10.0f * u;
-  }
   std::vector<LegendEntry> entries;
   for (const XySeries& s : plot.series) entries.push_back({s.label, s.color, s.lines ? s.line_px : s.marker_px, !s.lines});
-  y = draw_legend(r, entries, y, W, u, legend_style);
-
-  const float tick_len = 5.0f * u;
-  const float left = std::round(8.0f * u + label_style.size_px * 1.6f + 8.0f * u + label_w + tick_len + 4.0f * u);
-  const float right = std::round(W - 24.0f * u);
-  const float top = std::round(y + 8.0f * u);
-  const float bottom = std::round(H - (12.0f * u + tick_style.size_px + 14.0f * u + label_style.size_px + 10.0f * u));
-  const float pw = std::max(1.0f, right - left), ph = std::max(1.0f, bottom - top);
-  const auto px = [&](double v) { return left + static_cast<float>((v - xr.lo) / (xr.hi - xr.lo)) * pw; };
-  const auto py = [&](double v) { return top + (1.0f - static_cast<float>((v - yr.lo) / (yr.hi - yr.lo))) * ph; };
-  for (const double v : x_ticks) r.line2d({px(v), top}, {px(v), top + ph}, grid, 1.0f * u);
-  for (const double v : y_ticks) r.line2d({left, py(v)}, {left + pw, py(v)}, grid, 1.0f * u);
-  const Viewport clip{vp.x + static_cast<int>(left), vp.y + static_cast<int>(top), static_cast<int>(pw), static_cast<int>(ph)};
+  const float y = draw_header(r, look, plot.title, entries);
+  a.left = axes_left(look, label_w);
+  a.top = std::round(y + 8.0f * u);
+  a.w = std::max(1.0f, std::round(look.W - 24.0f * u) - a.left);
+  a.h = std::max(1.0f, std::round(look.H - axes_bottom_margin(look)) - a.top);
+  draw_grid(r, look, a);
+  const Viewport clip{vp.x + static_cast<int>(a.left), vp.y + static_cast<int>(a.top), static_cast<int>(a.w), static_cast<int>(a.h)};
   if (clip.width > 0 && clip.height > 0) {
     r.set_viewport(clip);
     for (const XySeries& s : plot.series) {
@@ -349,7 +367,7 @@ void draw_xy_plot(Renderer& r, const Viewport& vp, const XyPlot& plot) {
           flush();
           continue;
         }
-        const glm::vec2 p{px(s.x[i]) - left, py(s.y[i]) - top};
+        const glm::vec2 p{a.px(s.x[i]) - a.left, a.py(s.y[i]) - a.top};
         run.push_back(p);
         if (s.marker_px > 0.0f) r.disc2d(p, s.marker_px * u, s.color);
       }
@@ -357,23 +375,7 @@ void draw_xy_plot(Renderer& r, const Viewport& vp, const XyPlot& plot) {
     }
     r.set_viewport(vp);
   }
-  r.stroke_rect(left, top, pw, ph, ink, 1.5f * u);
-  for (const double v : y_ticks) {
-    r.line2d({left - tick_len, py(v)}, {left, py(v)}, ink, 1.2f * u);
-    r.text(tick_label(v, y_step), {left - tick_len - 4.0f * u, py(v)}, tick_style);
-  }
-  TextStyle xt = tick_style;
-  xt.align = Align::Center;
-  xt.valign = VAlign::Top;
-  for (const double v : x_ticks) {
-    r.line2d({px(v), top + ph}, {px(v), top + ph + tick_len}, ink, 1.2f * u);
-    r.text(tick_label(v, x_step), {px(v), top + ph + tick_len + 6.0f * u}, xt);
-  }
-  r.text(plot.y_label, {8.0f * u + 0.8f * label_style.size_px, top + 0.5f * ph}, label_style);
-  TextStyle xs = label_style;
-  xs.angle_deg = 0.0f;
-  xs.valign = VAlign::Top;
-  r.text(plot.x_label, {left + 0.5f * pw, top + ph + tick_len + 6.0f * u + xt.size_px + 12.0f * u}, xs);
+  draw_axes(r, look, a, plot.y_label, &plot.x_label);
 }
 
 Image render_xy_plot(const XyPlot& plot) {
