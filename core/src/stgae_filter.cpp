@@ -160,8 +160,9 @@ class StgaeFilter final : public PoseFilter {
 
   // Locked to the samples: each sample is a frame at its own time, so the answer at a
   // sample is a frame denoised there, not one extrapolated from a grid tick up to a period
-  // earlier (with irregular times that extrapolation dominated the error: 2.15 vs 0.96 mm
-  // on FPHA subject 5 at 30 Hz +-20 %). Samples missed (an interval of n sub-periods) get
+  // earlier (with irregular times that extrapolation dominated the error: FPHA subject 5,
+  // tracker preset, 30 Hz +-20 %: 1.40 mm on the grid, 1.02 locked, `handsteady benchmark
+  // --quick`; docs/STGAE.md). Samples missed (an interval of n sub-periods) get
   // n - 1 interpolated frames; a sample under half a sub-period after the last frame is
   // answered from the path, not framed.
   void push_locked(double t) noexcept {
