@@ -249,7 +249,7 @@ StgaeNetImpl::StgaeNetImpl(const StgaeConfig& cfg) : config(cfg) {
   }
 }
 
-TorchOutput StgaeNetImpl::forward(const torch::Tensor& features) {
+TorchOutput StgaeNetImpl::forward(const torch::Tensor& features, int pred_frames) {
   if (features.dim() != 4 || features.size(3) != 6)
     throw std::invalid_argument("stgae: features must be [B, L, N, 6]");
   torch::Tensor H = features;
@@ -264,6 +264,18 @@ TorchOutput StgaeNetImpl::forward(const torch::Tensor& features) {
     const int DT = config.horizon, C = config.latent_channels();
     torch::Tensor P = pre_gate ? pre_gate->forward(H) : H;
     torch::Tensor Z;
+    if (pred_frames > 1) {
+      if (!pre_lift || pred_frames > L) throw std::invalid_argument("stgae: predictions at several frames need a causal model and L >= P");
+      // Each of the last P frames predicts as the stream would there: fold them into the batch.
+      const int64_t Pn = pred_frames;
+      Z = pre_lift->forward(P.narrow(1, L - Pn, Pn).reshape({Bn * Pn, N, C}))
+              .view({Bn * Pn, N, DT, C})
+              .permute({0, 2, 1, 3});
+      Z = Z + positional_encoding(DT, C, H.scalar_type()).view({1, DT, 1, C});
+      for (auto& b : pre_blocks) Z = b->forward(Z);
+      out.predicted_offset = Z.view({Bn, Pn, DT, N, Z.size(-1)});
+      return out;
+    }
     if (pre_lift) {
       Z = pre_lift->forward(P.select(1, L - 1)).view({Bn, N, DT, C}).permute({0, 2, 1, 3});
     } else {
@@ -283,6 +295,10 @@ torch::Tensor denoised_positions(const StgaeConfig& config, const torch::Tensor&
 
 torch::Tensor predicted_positions(const StgaeConfig& config, const torch::Tensor& denoised, const TorchOutput& out) {
   const int64_t L = denoised.size(1);
+  if (out.predicted_offset.dim() == 5) {
+    const int64_t P = out.predicted_offset.size(1);
+    return denoised.narrow(1, L - P, P).unsqueeze(2) + config.shape_scale_m * out.predicted_offset;
+  }
   return denoised.narrow(1, L - 1, 1) + config.shape_scale_m * out.predicted_offset;
 }
 

@@ -82,14 +82,17 @@ struct GateImpl : torch::nn::Module {
 
 struct TorchOutput {
   torch::Tensor denoised_offset;   // D: [B, L, N, 3]; Xhat = x + shape_scale_m * D
-  torch::Tensor predicted_offset;  // Q: [B, DT, N, 3]; Yhat = Xhat[L-1] + shape_scale_m * Q (undefined if !predict)
+  // Q: [B, DT, N, 3]; Yhat = Xhat[L-1] + shape_scale_m * Q (undefined if !predict). With
+  // pred_frames P > 1 (training): [B, P, DT, N, 3], the prediction made at each of the
+  // last P frames, Yhat[p] = Xhat[L-P+p] + shape_scale_m * Q[p] (the streaming answers).
+  torch::Tensor predicted_offset;
 };
 
 struct StgaeNetImpl : torch::nn::Module {
   explicit StgaeNetImpl(const StgaeConfig& config);
   // features: [B, L, N, 6] (hs::train::input_features); centred models need L = T when
   // predicting, causal ones take any L >= 1.
-  TorchOutput forward(const torch::Tensor& features);
+  TorchOutput forward(const torch::Tensor& features, int pred_frames = 1);
 
   StgaeConfig config;
   std::shared_ptr<torch::nn::Module> enc, den, pre;

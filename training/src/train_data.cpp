@@ -2,6 +2,7 @@
 
 #include "handsteady/corrupt.hpp"
 #include "handsteady/error.hpp"
+#include "handsteady/hand_shape.hpp"
 #include "handsteady/import.hpp"
 #include "handsteady/track_ops.hpp"
 
@@ -35,6 +36,13 @@ bool fully_tracked(const Pose& p) {
   return true;
 }
 
+double log_uniform(std::mt19937_64& rng, double lo, double hi) {
+  return std::exp(uniform(rng, std::log(lo), std::log(hi)));
+}
+
+// Draws nothing when p <= 0, so a config without the option keeps its random sequence.
+bool chance(std::mt19937_64& rng, double p) { return p > 0.0 && std::generate_canonical<double, 53>(rng) < p; }
+
 uint64_t mix_seed(uint64_t a, uint64_t b) {
   uint64_t z = a + 0x9E3779B97F4A7C15ULL * (b + 1);
   z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
@@ -47,10 +55,12 @@ uint64_t mix_seed(uint64_t a, uint64_t b) {
 std::vector<std::string> parse_preset_chain(const std::string& text) {
   std::vector<std::string> out;
   if (text.empty() || text == "clean") return out;
+  if (text == "random") return {"random"};
   size_t begin = 0;
   while (begin <= text.size()) {
     const size_t end = std::min(text.find('+', begin), text.size());
     std::string name = text.substr(begin, end - begin);
+    if (name == "random") throw std::invalid_argument("\"random\" cannot be chained with presets");
     (void)corruption_preset(name);  // throws std::invalid_argument for an unknown name
     out.push_back(std::move(name));
     begin = end + 1;
@@ -62,6 +72,15 @@ size_t ClipSet::frames() const {
   size_t n = 0;
   for (const auto& c : clips) n += c.size();
   return n;
+}
+
+void ClipSet::append(ClipSet&& other, double weight) {
+  const int g = static_cast<int>(group_weight.size());
+  for (auto& c : other.clips) {
+    clips.push_back(std::move(c));
+    group.push_back(g);
+  }
+  group_weight.push_back(weight);
 }
 
 ClipSet make_clips(const std::vector<HandSeries>& series, double rate_hz, const std::vector<double>& speed_factors,
@@ -77,17 +96,60 @@ ClipSet make_clips(const std::vector<HandSeries>& series, double rate_hz, const 
       const HandSeries r = resample_series(scaled, rate_hz);
       std::vector<Pose> piece;
       auto flush = [&] {
-        if (static_cast<int>(piece.size()) >= min_frames) out.clips.push_back(std::move(piece));
+        if (static_cast<int>(piece.size()) >= min_frames) {
+          out.clips.push_back(std::move(piece));
+          out.group.push_back(0);
+        }
         piece.clear();
       };
+      const double max_step = kClipMaxJointSpeed_mps / rate_hz;
       for (const auto& p : r.pos) {
-        if (fully_tracked(p)) {
-          piece.push_back(p);
-        } else {
+        if (!fully_tracked(p)) {
           flush();
+          continue;
         }
+        if (!piece.empty() && (p - piece.back()).rowwise().norm().maxCoeff() > max_step) flush();
+        piece.push_back(p);
       }
       flush();
+    }
+  }
+  return out;
+}
+
+std::vector<std::filesystem::path> source_files(const DataSource& source) {
+  namespace fs = std::filesystem;
+  const auto keep = [&](const std::string& name) {
+    bool in = source.include.empty();
+    for (const auto& s : source.include) in = in || name.find(s) != std::string::npos;
+    for (const auto& s : source.exclude) in = in && name.find(s) == std::string::npos;
+    return in;
+  };
+  std::vector<fs::path> files;
+  if (fs::is_regular_file(source.path)) {
+    files.push_back(source.path);
+  } else if (fs::is_directory(source.path)) {
+    for (const auto& e : fs::directory_iterator(source.path)) {
+      const auto ext = e.path().extension();
+      if (e.is_regular_file() && (ext == ".csv" || ext == ".bvh") && keep(e.path().filename().string()))
+        files.push_back(e.path());
+    }
+    std::sort(files.begin(), files.end());
+  } else {
+    throw InputError({source.path.string(), 0, ""}, "training data not found (a track CSV, a BVH file or a folder)");
+  }
+  if (files.empty()) throw InputError({source.path.string(), 0, ""}, "no .csv or .bvh file selected here");
+  return files;
+}
+
+std::vector<HandSeries> load_source(const DataSource& source) {
+  if (source.fpha) return load_fpha_subjects(source.path, source.subjects);
+  std::vector<HandSeries> out;
+  for (const auto& f : source_files(source)) {
+    const Track t = f.extension() == ".bvh" ? import_bvh(f) : read_track_csv(f);
+    for (const Hand h : {Hand::Left, Hand::Right}) {
+      HandSeries s = hand_series(t, h);
+      if (!s.empty()) out.push_back(std::move(s));
     }
   }
   return out;
@@ -155,12 +217,63 @@ bool input_features(const std::vector<Pose>& raw, double shape_scale_m, double v
 std::vector<Pose> corrupt_chain(const std::vector<Pose>& clean, double rate_hz, const std::vector<std::string>& presets,
                                 uint64_t seed) {
   if (presets.empty()) return clean;
+  if (presets.size() == 1 && presets.front() == "random") {
+    std::mt19937_64 rng(seed);
+    const RandomCorruption rc = random_corruption(rng, rate_hz);
+    return apply_random_corruption(clean, rate_hz, rc, rng());
+  }
   HandSeries s;
   s.pos = clean;
   s.t.resize(clean.size());
   for (size_t i = 0; i < clean.size(); ++i) s.t[i] = static_cast<double>(i) / rate_hz;
   uint64_t k = 0;
   for (const auto& name : presets) s = corrupt_series(s, corruption_preset(name), mix_seed(seed, k++));
+  return s.pos;
+}
+
+RandomCorruption random_corruption(std::mt19937_64& rng, double rate_hz) {
+  RandomCorruption rc;
+  if (chance(rng, 0.3)) {
+    CorruptionConfig c;
+    c.kind = CorruptionKind::Tremor;
+    const double f = uniform(rng, 3.5, 12.0);
+    c.tremor.freq_min_hz = f - 1.0;
+    c.tremor.freq_max_hz = f + 1.0;
+    c.tremor.hand_amplitude_m = log_uniform(rng, 0.3e-3, 6e-3);
+    c.tremor.finger_amplitude_m = uniform(rng, 0.2, 1.0) * c.tremor.hand_amplitude_m;
+    rc.steps.push_back(c);
+  }
+  CorruptionConfig c;
+  c.kind = CorruptionKind::Tracker;
+  TrackerCorruption& t = c.tracker;
+  if (chance(rng, 0.85)) {
+    t.jitter_sd_m = log_uniform(rng, 0.2e-3, 6e-3);
+    if (chance(rng, 0.5)) t.jitter_ar1 = std::exp(-1.0 / (rate_hz * uniform(rng, 0.02, 0.2)));
+  }
+  if (chance(rng, 0.2)) t.outlier_prob = log_uniform(rng, 0.002, 0.03);
+  if (chance(rng, 0.25)) {
+    t.joint_drop_prob = uniform(rng, 0.0, 0.25);
+    t.hand_drop_rate_hz = uniform(rng, 0.0, 1.0);
+    t.hand_drop_mean_s = 0.3;
+  }
+  if (chance(rng, 0.1)) t.quantize_m = uniform(rng, 0.5e-3, 4e-3);
+  rc.steps.push_back(c);
+  for (double& s : rc.joint_scale) s = uniform(rng, 0.5, 1.5);
+  return rc;
+}
+
+std::vector<Pose> apply_random_corruption(const std::vector<Pose>& clean, double rate_hz, const RandomCorruption& rc,
+                                          uint64_t seed) {
+  HandSeries s;
+  s.pos = clean;
+  s.t.resize(clean.size());
+  for (size_t i = 0; i < clean.size(); ++i) s.t[i] = static_cast<double>(i) / rate_hz;
+  uint64_t k = 0;
+  for (const auto& c : rc.steps) s = corrupt_series(s, c, mix_seed(seed, k++));
+  for (size_t i = 0; i < clean.size(); ++i)
+    for (int j = 0; j < kJointCount; ++j)
+      if (s.pos[i].row(j).allFinite())  // a dropped joint stays dropped
+        s.pos[i].row(j) = clean[i].row(j) + rc.joint_scale[static_cast<size_t>(j)] * (s.pos[i].row(j) - clean[i].row(j));
   return s.pos;
 }
 
@@ -177,19 +290,53 @@ WindowSampler::WindowSampler(const ClipSet& clips, int window, int horizon, doub
   }
   if (!(total > 0.0)) throw std::invalid_argument("corruption mix weights sum to zero");
   const int len = T_ + DT_;
+  const size_t groups = std::max<size_t>(1, clips.group_weight.size());
+  starts_.resize(groups);
   for (size_t c = 0; c < clips.clips.size(); ++c) {
     const int n = static_cast<int>(clips.clips[c].size());
-    for (int s = 0; s + len <= n; ++s) starts_.emplace_back(static_cast<uint32_t>(c), static_cast<uint32_t>(s));
+    const size_t g = c < clips.group.size() ? static_cast<size_t>(clips.group[c]) : 0;
+    for (int s = 0; s + len <= n; ++s) starts_.at(g).emplace_back(static_cast<uint32_t>(c), static_cast<uint32_t>(s));
   }
-  if (starts_.empty()) throw std::invalid_argument("no clip is long enough for one window of T + DT frames");
+  double weights = 0.0;
+  for (size_t g = 0; g < groups; ++g) {
+    // A source too short for one window draws nothing.
+    if (!starts_[g].empty()) weights += g < clips.group_weight.size() ? clips.group_weight[g] : 1.0;
+    group_cdf_.push_back(weights);
+  }
+  if (!(weights > 0.0)) throw std::invalid_argument("no clip is long enough for one window of T + DT frames");
+}
+
+size_t WindowSampler::window_count() const {
+  size_t n = 0;
+  for (const auto& s : starts_) n += s.size();
+  return n;
 }
 
 Window WindowSampler::draw(std::mt19937_64& rng) const {
-  const auto [c, s] = starts_[std::uniform_int_distribution<size_t>(0, starts_.size() - 1)(rng)];
+  size_t g = 0;
+  if (starts_.size() > 1) {  // one source draws no number, as before sources existed
+    const double ug = std::generate_canonical<double, 53>(rng) * group_cdf_.back();
+    g = static_cast<size_t>(std::upper_bound(group_cdf_.begin(), group_cdf_.end(), ug) - group_cdf_.begin());
+    g = std::min(g, starts_.size() - 1);
+    while (starts_[g].empty()) g = (g + 1) % starts_.size();  // ug at the edge of an empty group
+  }
+  const auto& starts = starts_[g];
+  const auto [c, s] = starts[std::uniform_int_distribution<size_t>(0, starts.size() - 1)(rng)];
   const auto& clip = clips_->clips[c];
   const size_t len = static_cast<size_t>(T_ + DT_);
   Window w;
   w.truth.assign(clip.begin() + s, clip.begin() + s + static_cast<long>(len));
+  if (chance(rng, augment_.still_prob)) {
+    const size_t held = std::uniform_int_distribution<size_t>(0, len - 1)(rng);
+    const Pose p = w.truth[held];
+    for (auto& q : w.truth) q = p;
+  }
+  if (chance(rng, augment_.shape_prob)) {
+    apply_shape(w.truth, {"", ShapeKind::BoneJitter, uniform(rng, 0.0, 0.2)}, rng());
+    if (chance(rng, 1.0 / 3)) apply_shape(w.truth, {"", ShapeKind::WristProximal, uniform(rng, 0.0, 0.03)}, 0);
+    if (chance(rng, 1.0 / 3)) apply_shape(w.truth, {"", ShapeKind::PalmCentroid, 0.0}, 0);
+    if (chance(rng, 1.0 / 3)) apply_shape(w.truth, {"", ShapeKind::ThumbBase, uniform(rng, 0.0, 0.4)}, 0);
+  }
 
   // Augmentation: one rigid-plus-scale transform for the whole window.
   const double scale = uniform(rng, augment_.scale_min, augment_.scale_max);

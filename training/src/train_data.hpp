@@ -2,7 +2,10 @@
 // Training data for Multi-STGAE (no libtorch here): clean clips at the model rate,
 // windows of T input + DT target frames cut from them, augmentation (rotation,
 // translation, hand size, mirroring, playback speed) and on-the-fly corruption.
+#include "handsteady/corrupt.hpp"
 #include "handsteady/track.hpp"
+
+#include <array>
 
 #include <cstdint>
 #include <filesystem>
@@ -13,12 +16,14 @@
 namespace hs::train {
 
 // One entry of the corruption mix: presets applied in sequence (e.g. tracker then
-// tremor); an empty list means the clean window is the input.
+// tremor); an empty list means the clean window is the input; {"random"} a fresh
+// domain-randomised corruption per window (random_corruption below).
 struct CorruptionMixEntry {
   std::vector<std::string> presets;
   double weight = 1.0;
 };
-// "tracker+tremor" -> {"tracker", "tremor"}; "clean" or "" -> {}. Checks the names.
+// "tracker+tremor" -> {"tracker", "tremor"}; "clean" or "" -> {}; "random" -> {"random"}
+// (not chained with others). Checks the names.
 std::vector<std::string> parse_preset_chain(const std::string& text);
 
 struct AugmentConfig {
@@ -30,16 +35,52 @@ struct AugmentConfig {
   // Playback speeds (rate jitter): each take is also resampled as if recorded this much
   // faster (>1) or slower (<1), so the model sees a range of motion speeds per frame.
   std::vector<double> speed_factors{1.0};
+  // Other hands (hand_shape.hpp), drawn per window with this probability: each bone x
+  // 1 +- up to 20 %, and, a third of the time each, the wrist up to 3 cm towards the arm,
+  // the palm at the finger-base centroid, the thumb metacarpal up to 40 % to the wrist.
+  double shape_prob = 0.0;
+  // Still hands: the window is one of its frames held (then corrupted as any other).
+  double still_prob = 0.0;
 };
 
-// Clean clips at the model rate; every joint of every frame tracked.
+// Where training or validation hands come from. FPHA: `path` is the dataset root and
+// `subjects` the subject numbers (right hands). Otherwise `path` is a track CSV or BVH
+// file, or a folder whose .csv/.bvh files are all read (both hands); a file is kept when
+// its name contains one of `include` (if any) and none of `exclude`.
+struct DataSource {
+  std::filesystem::path path;
+  std::vector<int> subjects;
+  bool fpha = false;
+  std::vector<std::string> include, exclude;
+  double weight = 1.0;  // share of the training windows drawn from this source
+};
+inline DataSource fpha_source(const std::filesystem::path& root, std::vector<int> subjects) {
+  DataSource d;
+  d.path = root;
+  d.subjects = std::move(subjects);
+  d.fpha = true;
+  return d;
+}
+// The selected files of a non-FPHA source, sorted (InputError if none).
+std::vector<std::filesystem::path> source_files(const DataSource& source);
+std::vector<HandSeries> load_source(const DataSource& source);
+
+// Clean clips at the model rate; every joint of every frame tracked. group: the source
+// of each clip (windows are drawn per source by weight).
 struct ClipSet {
   std::vector<std::vector<Pose>> clips;
+  std::vector<int> group;
+  std::vector<double> group_weight;
   size_t frames() const;
+  void append(ClipSet&& other, double weight);  // other as one more group
 };
 
+// A joint faster than this between two frames is a tracker re-acquiring the hand (Leap
+// Motion's recordings have such jumps), not motion: clips are split there.
+inline constexpr double kClipMaxJointSpeed_mps = 8.0;
+
 // Resamples each series at rate_hz for each playback speed and splits it at frames
-// with an untracked joint; pieces shorter than min_frames are dropped.
+// with an untracked joint or a jump; pieces shorter than min_frames are dropped.
 ClipSet make_clips(const std::vector<HandSeries>& series, double rate_hz, const std::vector<double>& speed_factors,
                    int min_frames);
 // Right hands of FPHA takes under root/Subject_<s> for each subject (InputError if a
@@ -53,12 +94,24 @@ struct Window {
   std::vector<Pose> truth;
 };
 
-// Uniformly random windows over all start positions of all clips.
+// A domain-randomised corruption for one window at rate_hz: white or AR(1) jitter
+// (0.2-6 mm, time constant 20-200 ms), tremor (3.5-12 Hz, 0.3-6 mm), outliers, missing
+// joints and hand dropouts, quantisation, each present with its own probability and
+// random strength; then every joint's deviation scaled by its own factor in [0.5, 1.5].
+struct RandomCorruption {
+  std::vector<CorruptionConfig> steps;
+  std::array<double, kJointCount> joint_scale{};
+};
+RandomCorruption random_corruption(std::mt19937_64& rng, double rate_hz);
+std::vector<Pose> apply_random_corruption(const std::vector<Pose>& clean, double rate_hz, const RandomCorruption& rc,
+                                          uint64_t seed);
+
+// Random windows: a source by weight, then a uniform start in it.
 class WindowSampler {
  public:
   WindowSampler(const ClipSet& clips, int window, int horizon, double rate_hz, AugmentConfig augment,
                 std::vector<CorruptionMixEntry> mix);
-  size_t window_count() const { return starts_.size(); }
+  size_t window_count() const;
   Window draw(std::mt19937_64& rng) const;
 
  private:
@@ -68,7 +121,8 @@ class WindowSampler {
   AugmentConfig augment_;
   std::vector<CorruptionMixEntry> mix_;
   std::vector<double> mix_cdf_;
-  std::vector<std::pair<uint32_t, uint32_t>> starts_;  // (clip, first frame)
+  std::vector<std::vector<std::pair<uint32_t, uint32_t>>> starts_;  // per group: (clip, first frame)
+  std::vector<double> group_cdf_;
 };
 
 // Fixed validation windows: every clip cut with the given stride, no augmentation,
@@ -85,7 +139,8 @@ std::vector<Window> fixed_windows(const ClipSet& clips, int window, int horizon,
 bool input_features(const std::vector<Pose>& raw, double shape_scale_m, double velocity_scale_m, double* features,
                     double* filled);
 
-// Corrupts poses (frames at rate_hz) by a chain of presets.
+// Corrupts poses (frames at rate_hz) by a chain of presets, or by a random corruption
+// drawn from the seed when the chain is {"random"}.
 std::vector<Pose> corrupt_chain(const std::vector<Pose>& clean, double rate_hz, const std::vector<std::string>& presets,
                                 uint64_t seed);
 

@@ -81,6 +81,47 @@ void check_presets(const std::vector<std::string>& names, const std::string& sou
   }
 }
 
+// [{"fpha": root, "subjects": [1, 2]}, {"path": p, "include": [..], "exclude": [..]}, ...],
+// each with an optional "weight".
+std::vector<DataSource> parse_sources(const json& list, const std::string& source, const std::string& key) {
+  if (!list.is_array() || list.empty()) config_error(source, key, "expected a non-empty array of sources");
+  std::vector<DataSource> out;
+  for (size_t i = 0; i < list.size(); ++i) {
+    const json& e = list[i];
+    const std::string k = key + "[" + std::to_string(i) + "]";
+    if (!e.is_object()) config_error(source, k, "expected {\"fpha\": root, \"subjects\": [...]} or {\"path\": ...}");
+    DataSource d;
+    try {
+      for (const auto& [name, v] : e.items()) {
+        if (name == "fpha") {
+          d.fpha = true;
+          d.path = v.get<std::string>();
+        } else if (name == "path") {
+          d.path = v.get<std::string>();
+        } else if (name == "subjects") {
+          d.subjects = v.get<std::vector<int>>();
+        } else if (name == "include") {
+          d.include = v.get<std::vector<std::string>>();
+        } else if (name == "exclude") {
+          d.exclude = v.get<std::vector<std::string>>();
+        } else if (name == "weight") {
+          d.weight = v.get<double>();
+        } else {
+          config_error(source, k + "." + name, "unknown key");
+        }
+      }
+    } catch (const json::exception&) {
+      config_error(source, k, "wrong type");
+    }
+    if (e.contains("fpha") == e.contains("path")) config_error(source, k, "give exactly one of fpha and path");
+    if (d.fpha && d.subjects.empty()) config_error(source, k + ".subjects", "FPHA needs subject numbers");
+    if (!d.fpha && e.contains("subjects")) config_error(source, k + ".subjects", "only for fpha sources");
+    if (!(d.weight > 0 && std::isfinite(d.weight))) config_error(source, k + ".weight", "must be positive");
+    out.push_back(std::move(d));
+  }
+  return out;
+}
+
 }  // namespace
 
 TrainConfig parse_train_config(std::string_view text, const std::string& source) {
@@ -101,21 +142,34 @@ TrainConfig parse_train_config(std::string_view text, const std::string& source)
   if (c.model.skeleton != "xr26") config_error(source, "model.skeleton", "training data is xr26 only");
 
   Section data(j, "data", source);
-  std::string root = c.data_root.string();
+  std::string root = "../shared/data/fpha";
+  std::vector<int> train_subjects{1, 2, 3, 4}, val_subjects{5};
+  const bool legacy = data.raw("root") || data.raw("train_subjects") || data.raw("val_subjects");
   data.get("root", root);
-  c.data_root = root;
-  data.get("train_subjects", c.train_subjects);
-  data.get("val_subjects", c.val_subjects);
+  data.get("train_subjects", train_subjects);
+  data.get("val_subjects", val_subjects);
+  const json* train_src = data.raw("train");
+  const json* val_src = data.raw("val");
   data.get("synthetic_takes", c.synthetic_takes);
   data.get("synthetic_seconds", c.synthetic_seconds);
   data.finish();
   if (c.synthetic_takes < 0 || c.synthetic_takes > 10000) config_error(source, "data.synthetic_takes", "must be in [0, 10000]");
   if (!(c.synthetic_seconds > 0)) config_error(source, "data.synthetic_seconds", "must be positive");
-  if (c.synthetic_takes == 0 && (c.train_subjects.empty() || c.val_subjects.empty()))
-    config_error(source, "data.train_subjects", "train and validation subjects must not be empty");
-  for (int a : c.train_subjects)
-    if (std::find(c.val_subjects.begin(), c.val_subjects.end(), a) != c.val_subjects.end())
-      config_error(source, "data.val_subjects", "subject " + std::to_string(a) + " is in both train and validation");
+  if (legacy && (train_src || val_src))
+    config_error(source, "data", "give either root/train_subjects/val_subjects (FPHA) or train/val source lists");
+  if (legacy || (!train_src && !val_src)) {
+    if (c.synthetic_takes == 0 && (train_subjects.empty() || val_subjects.empty()))
+      config_error(source, "data.train_subjects", "train and validation subjects must not be empty");
+    for (int a : train_subjects)
+      if (std::find(val_subjects.begin(), val_subjects.end(), a) != val_subjects.end())
+        config_error(source, "data.val_subjects", "subject " + std::to_string(a) + " is in both train and validation");
+    c.train_sources = {fpha_source(root, train_subjects)};
+    c.val_sources = {fpha_source(root, val_subjects)};
+  } else {
+    if (!train_src || !val_src) config_error(source, "data", "train and val source lists go together");
+    c.train_sources = parse_sources(*train_src, source, "data.train");
+    c.val_sources = parse_sources(*val_src, source, "data.val");
+  }
 
   Section aug(j, "augment", source);
   aug.get("rotate", c.augment.rotate);
@@ -124,7 +178,11 @@ TrainConfig parse_train_config(std::string_view text, const std::string& source)
   aug.get("scale", scale);
   aug.get("mirror_prob", c.augment.mirror_prob);
   aug.get("speed_factors", c.augment.speed_factors);
+  aug.get("shape_prob", c.augment.shape_prob);
+  aug.get("still_prob", c.augment.still_prob);
   aug.finish();
+  for (const auto& [k, v] : {std::pair{"shape_prob", c.augment.shape_prob}, std::pair{"still_prob", c.augment.still_prob}})
+    if (!(v >= 0 && v <= 1)) config_error(source, std::string("augment.") + k, "must be in [0, 1]");
   if (scale.size() != 2 || !(scale[0] > 0) || !(scale[1] >= scale[0]))
     config_error(source, "augment.scale", "expected [min, max] with 0 < min <= max");
   c.augment.scale_min = scale[0];
@@ -175,6 +233,8 @@ TrainConfig parse_train_config(std::string_view text, const std::string& source)
   tr.get("denoise_only_epochs", c.denoise_only_epochs);
   tr.get("batch", c.batch);
   tr.get("windows_per_epoch", c.windows_per_epoch);
+  tr.get("sequence", c.sequence);
+  tr.get("predict_frames", c.predict_frames);
   if (const json* lr = tr.raw("lr")) {
     c.lr.clear();
     if (!lr->is_array() || lr->empty()) config_error(source, "train.lr", "expected [[first_epoch, rate], ...]");
@@ -198,6 +258,12 @@ TrainConfig parse_train_config(std::string_view text, const std::string& source)
   }
   if (!(c.grad_clip >= 0)) config_error(source, "train.grad_clip", "must be >= 0");
   if (c.threads < 0 || c.threads > 256) config_error(source, "train.threads", "must be in [0, 256]");
+  if (c.sequence != 0 && (c.sequence < c.model.window || c.sequence > 1024))
+    config_error(source, "train.sequence", "must be 0 (the window) or in [model.window, 1024]");
+  if (c.predict_frames < 1 || (c.predict_frames > 1 && c.predict_frames >= c.sequence_length()))
+    config_error(source, "train.predict_frames", "must be 1 or in [2, the sequence length - 1]");
+  if (c.predict_frames > 1 && c.model.padding != StgaePadding::Causal)
+    config_error(source, "train.predict_frames", "predictions at several frames need a causal model");
 
   Section lo(j, "loss", source);
   lo.get("pose", c.loss.pose);
@@ -205,8 +271,9 @@ TrainConfig parse_train_config(std::string_view text, const std::string& source)
   lo.get("symmetry", c.loss.symmetry);
   lo.get("smooth", c.loss.smooth);
   lo.get("predict", c.loss.predict);
+  lo.get("predict_smooth", c.loss.predict_smooth);
   lo.finish();
-  for (double w : {c.loss.pose, c.loss.bone, c.loss.symmetry, c.loss.smooth, c.loss.predict})
+  for (double w : {c.loss.pose, c.loss.bone, c.loss.symmetry, c.loss.smooth, c.loss.predict, c.loss.predict_smooth})
     if (!(w >= 0 && std::isfinite(w))) config_error(source, "loss", "weights must be finite and >= 0");
   return c;
 }
@@ -244,8 +311,9 @@ struct Batch {
 
 class BatchBuilder {
  public:
-  BatchBuilder(const StgaeConfig& c, int capacity)
-      : c_(c), T_(c.window), DT_(c.predict ? c.horizon : 0),
+  // frames: input frames per window (the model window, or a longer training sequence).
+  BatchBuilder(const StgaeConfig& c, int frames, int capacity)
+      : c_(c), T_(frames), DT_(c.predict ? c.horizon : 0),
         feat_(static_cast<size_t>(T_) * N * 6), filled_(static_cast<size_t>(T_) * N * 3) {
     reserve(capacity);
   }
@@ -300,7 +368,7 @@ torch::Tensor edge_index(const std::vector<Edge>& edges, bool first) {
 
 struct Losses {
   torch::Tensor total;
-  double pose = 0, bone = 0, sym = 0, smooth = 0, pred = 0;
+  double pose = 0, bone = 0, sym = 0, smooth = 0, pred = 0, pred_smooth = 0;
 };
 
 class LossFn {
@@ -313,7 +381,7 @@ class LossFn {
     sym_b_ = edge_index(s.symmetry, false);
   }
   Losses operator()(const TorchOutput& out, const Batch& b, bool with_pred) const {
-    const int T = c_.model.window;
+    const int T = static_cast<int>(b.x.size(1));
     const auto X = denoised_positions(c_.model, b.x, out);
     const auto Xt = b.truth.narrow(1, 0, T);
     Losses l;
@@ -339,10 +407,37 @@ class LossFn {
       l.smooth = smooth.item<double>();
     }
     if (with_pred && c_.model.predict) {
+      const int DT = c_.model.horizon;
       const auto Y = predicted_positions(c_.model, X, out);
-      auto pred = (Y - b.truth.narrow(1, T, c_.model.horizon)).pow(2).mean() * kCm2;
-      total = total + c_.loss.predict * pred;
-      l.pred = pred.item<double>();
+      if (Y.dim() == 5) {
+        // Predictions made at each of the last P frames: [B, P, DT, N, 3] against the truth
+        // 1..DT frames after each.
+        const int P = static_cast<int>(Y.size(1));
+        const auto Yt = b.truth.narrow(1, T - P + 1, P + DT - 1).unfold(1, DT, 1).permute({0, 1, 4, 2, 3});
+        auto pred = (Y - Yt).pow(2).mean() * kCm2;
+        total = total + c_.loss.predict * pred;
+        l.pred = pred.item<double>();
+        if (c_.loss.predict_smooth > 0) {
+          // Along each path: denoised t-1, t, then the DT predictions.
+          auto path = [&](const torch::Tensor& den, const torch::Tensor& fut) {
+            return torch::cat({den.narrow(1, T - P - 1, P).unsqueeze(2), den.narrow(1, T - P, P).unsqueeze(2), fut}, 2);
+          };
+          const auto pe = path(X, Y), pt = path(Xt, Yt);
+          auto acc = [](const torch::Tensor& p, int64_t dim) {
+            const int64_t n = p.size(dim);
+            return p.narrow(dim, 2, n - 2) - 2 * p.narrow(dim, 1, n - 2) + p.narrow(dim, 0, n - 2);
+          };
+          auto ps = (acc(pe, 2) - acc(pt, 2)).pow(2).mean();
+          if (P >= 3) ps = ps + (acc(Y, 1) - acc(Yt, 1)).pow(2).mean();  // each horizon over time
+          ps = ps * kCm2;
+          total = total + c_.loss.predict_smooth * ps;
+          l.pred_smooth = ps.item<double>();
+        }
+      } else {
+        auto pred = (Y - b.truth.narrow(1, T, DT)).pow(2).mean() * kCm2;
+        total = total + c_.loss.predict * pred;
+        l.pred = pred.item<double>();
+      }
     }
     l.total = total;
     return l;
@@ -433,20 +528,20 @@ Pose to_pose(const float* p, const Eigen::RowVector3d& origin) {
 
 PresetMetrics validate(StgaeNetImpl& net, const TrainConfig& c, const ValSet& set, const LossFn& loss, bool with_pred,
                        double& loss_sum, double& loss_count) {
-  const int T = c.model.window, DT = c.model.predict ? c.model.horizon : 0;
+  const int T = c.sequence_length(), DT = c.model.predict ? c.model.horizon : 0;
   PresetMetrics m;
   m.preset = set.preset;
   m.windows = set.windows.size();
   std::vector<Pose> truth_all, in_all, den_all, truth_last, den_last, hold_in, hold_truth;
   std::vector<std::vector<Pose>> pred_est(static_cast<size_t>(DT)), pred_truth(static_cast<size_t>(DT));
   constexpr int kChunk = 256;
-  BatchBuilder builder(c.model, kChunk);
+  BatchBuilder builder(c.model, T, kChunk);
   torch::NoGradGuard no_grad;
   for (size_t first = 0; first < set.windows.size(); first += kChunk) {
     const size_t end = std::min(set.windows.size(), first + kChunk);
     for (size_t i = first; i < end; ++i) builder.add(set.windows[i]);
     const Batch b = builder.take();
-    const auto out = net.forward(b.feat);
+    const auto out = net.forward(b.feat, c.predict_frames);
     const auto l = loss(out, b, with_pred);
     const double n = static_cast<double>(b.origin.size());
     loss_sum += l.total.item<double>() * n;
@@ -455,7 +550,11 @@ PresetMetrics validate(StgaeNetImpl& net, const TrainConfig& c, const ValSet& se
     const auto x = b.x.contiguous();
     const auto tr = b.truth.contiguous();
     torch::Tensor Y;
-    if (DT > 0) Y = predicted_positions(c.model, X, out).contiguous();
+    if (DT > 0) {
+      Y = predicted_positions(c.model, X, out);
+      if (Y.dim() == 5) Y = Y.select(1, Y.size(1) - 1);  // the newest frame's prediction
+      Y = Y.contiguous();
+    }
     const size_t frame = N * 3;
     for (size_t w = 0; w < b.origin.size(); ++w) {
       const auto& o = b.origin[w];
@@ -522,17 +621,23 @@ json metrics_json(const std::vector<PresetMetrics>& ms) {
 
 // ---- data ------------------------------------------------------------------------------
 
-void load_series(const TrainConfig& c, std::vector<HandSeries>& train, std::vector<HandSeries>& val) {
+// Clean clips of every source at the model rate (training: with the speed variants), one
+// group per training source.
+void load_clips(const TrainConfig& c, int min_frames, ClipSet& train, ClipSet& val) {
+  const double rate = c.model.rate_hz;
   if (c.synthetic_takes > 0) {
     SynthMotionParams p;
     p.duration_s = c.synthetic_seconds;
     const int n_val = std::max(1, c.synthetic_takes / 4);
-    for (int i = 0; i < c.synthetic_takes; ++i) train.push_back(synth_motion(p, Hand::Right, c.seed * 7919 + static_cast<uint64_t>(i)));
-    for (int i = 0; i < n_val; ++i) val.push_back(synth_motion(p, Hand::Right, 1000003 + c.val_seed * 7919 + static_cast<uint64_t>(i)));
+    std::vector<HandSeries> ts, vs;
+    for (int i = 0; i < c.synthetic_takes; ++i) ts.push_back(synth_motion(p, Hand::Right, c.seed * 7919 + static_cast<uint64_t>(i)));
+    for (int i = 0; i < n_val; ++i) vs.push_back(synth_motion(p, Hand::Right, 1000003 + c.val_seed * 7919 + static_cast<uint64_t>(i)));
+    train.append(make_clips(ts, rate, c.augment.speed_factors, min_frames), 1.0);
+    val.append(make_clips(vs, rate, {1.0}, min_frames), 1.0);
     return;
   }
-  train = load_fpha_subjects(c.data_root, c.train_subjects);
-  val = load_fpha_subjects(c.data_root, c.val_subjects);
+  for (const auto& s : c.train_sources) train.append(make_clips(load_source(s), rate, c.augment.speed_factors, min_frames), s.weight);
+  for (const auto& s : c.val_sources) val.append(make_clips(load_source(s), rate, {1.0}, min_frames), 1.0);
 }
 
 // Writes to a temporary name and renames, so an interrupted run never leaves a torn file.
@@ -550,9 +655,10 @@ void save_model(StgaeNetImpl& net, const TrainConfig& c, const std::filesystem::
   mc.meta_json = meta.dump();
   const StgaeWeights w = export_weights(net);
   std::vector<float> input;
-  for (const auto& p : ref_window.input)
+  // The model's own window: the first T frames of a (possibly longer) validation sequence.
+  for (size_t t = 0; t < static_cast<size_t>(c.model.window); ++t)
     for (int j = 0; j < N; ++j)
-      for (int k = 0; k < 3; ++k) input.push_back(static_cast<float>(p(j, k)));
+      for (int k = 0; k < 3; ++k) input.push_back(static_cast<float>(ref_window.input[t](j, k)));
   // The reference output comes from the Eigen engine, so the loader's check is exact.
   const StgaeReference ref = make_stgae_reference(mc, w, std::move(input));
   write_atomically(out, [&](const std::filesystem::path& p) { save_hsm(p, mc, w, ref); });
@@ -574,18 +680,17 @@ TrainResult train_stgae(const TrainConfig& cfg, const TrainOptions& opt, std::os
   torch::manual_seed(c.seed);
   std::mt19937_64 rng(c.seed);
 
-  std::vector<HandSeries> train_series, val_series;
-  load_series(c, train_series, val_series);
-  const ClipSet train_clips = make_clips(train_series, c.model.rate_hz, c.augment.speed_factors, T + DT);
-  const ClipSet val_clips = make_clips(val_series, c.model.rate_hz, {1.0}, T + DT);
-  const WindowSampler sampler(train_clips, T, DT, c.model.rate_hz, c.augment, c.mix);
+  const int L = c.sequence_length();
+  ClipSet train_clips, val_clips;
+  load_clips(c, L + DT, train_clips, val_clips);
+  const WindowSampler sampler(train_clips, L, DT, c.model.rate_hz, c.augment, c.mix);
   std::vector<ValSet> val;
   for (size_t i = 0; i < c.val_presets.size(); ++i) {
     ValSet v;
     v.preset = c.val_presets[i];
-    auto all = fixed_windows(val_clips, T, DT, c.val_stride > 0 ? c.val_stride : T, c.model.rate_hz,
+    auto all = fixed_windows(val_clips, L, DT, c.val_stride > 0 ? c.val_stride : L, c.model.rate_hz,
                              parse_preset_chain(c.val_presets[i]), c.val_seed + 1000 * i);
-    std::vector<double> f(static_cast<size_t>(T) * N * 6), x(static_cast<size_t>(T) * N * 3);
+    std::vector<double> f(static_cast<size_t>(L) * N * 6), x(static_cast<size_t>(L) * N * 3);
     for (auto& w : all)
       if (input_features(w.input, c.model.shape_scale_m, c.model.velocity_scale_m, f.data(), x.data()))
         v.windows.push_back(std::move(w));
@@ -600,7 +705,7 @@ TrainResult train_stgae(const TrainConfig& cfg, const TrainOptions& opt, std::os
   size_t n_params = 0;
   for (const auto& p : net->parameters()) n_params += static_cast<size_t>(p.numel());
   log << "model: " << n_params << " parameters, " << (c.model.padding == StgaePadding::Causal ? "causal" : "centred")
-      << ", T " << T << ", DT " << DT << ", threads " << torch::get_num_threads() << "\n";
+      << ", T " << T << ", DT " << DT << ", training sequences of " << L << " frames, threads " << torch::get_num_threads() << "\n";
   torch::optim::Adam adam(net->parameters(), torch::optim::AdamOptions(learning_rate(c, 0)));
   const LossFn loss(c);
 
@@ -643,7 +748,7 @@ TrainResult train_stgae(const TrainConfig& cfg, const TrainOptions& opt, std::os
   result.best_epoch = best_epoch;
   result.best_val_loss = best;
   const int steps = c.windows_per_epoch / c.batch;
-  BatchBuilder builder(c.model, c.batch);
+  BatchBuilder builder(c.model, L, c.batch);
   double mean_epoch_s = std::numeric_limits<double>::quiet_NaN();
   for (int epoch = start_epoch; epoch < c.epochs; ++epoch) {
     const auto t0 = Clock::now();
@@ -661,7 +766,7 @@ TrainResult train_stgae(const TrainConfig& cfg, const TrainOptions& opt, std::os
       const Batch b = builder.take();
       data_s += since(td);
       adam.zero_grad();
-      const auto out = net->forward(b.feat);
+      const auto out = net->forward(b.feat, c.predict_frames);
       const auto l = loss(out, b, joint);
       l.total.backward();
       if (c.grad_clip > 0) torch::nn::utils::clip_grad_norm_(net->parameters(), c.grad_clip);

@@ -23,15 +23,19 @@ struct LossWeights {
   double symmetry = 0.1;  // (symmetry edge length error)^2
   double smooth = 0.0;    // (acceleration error)^2 of the denoised window
   double predict = 0.2;   // MSE of the predicted frames (second phase only)
+  // (acceleration error)^2 of the predictions (second phase only): along each predicted
+  // path (the last two denoised frames, then the predicted ones) and, with
+  // train.predict_frames >= 3, of each horizon's prediction from frame to frame.
+  double predict_smooth = 0.0;
 };
 
 struct TrainConfig {
   StgaeConfig model;
-  // Data: FPHA subjects under data_root (relative paths are relative to the working
-  // directory), or synthetic motion when synthetic_takes > 0 (tests, no data needed).
-  std::filesystem::path data_root = "../shared/data/fpha";
-  std::vector<int> train_subjects{1, 2, 3, 4};
-  std::vector<int> val_subjects{5};
+  // Data: the sources (relative paths are relative to the working directory): by default
+  // FPHA subjects 1-4 to train and 5 to validate; or synthetic motion when
+  // synthetic_takes > 0 (tests, no data needed).
+  std::vector<DataSource> train_sources{fpha_source("../shared/data/fpha", {1, 2, 3, 4})};
+  std::vector<DataSource> val_sources{fpha_source("../shared/data/fpha", {5})};
   int synthetic_takes = 0;
   double synthetic_seconds = 20.0;
   AugmentConfig augment;
@@ -45,6 +49,12 @@ struct TrainConfig {
   int denoise_only_epochs = 8;                 // first step of the two-step schedule
   int batch = 64;
   int windows_per_epoch = 16384;
+  // Frames per training sequence (>= model.window; 0 = the window). Longer sequences
+  // train the streaming answers (every frame past the window is one) and their
+  // smoothness from frame to frame.
+  int sequence = 0;
+  int predict_frames = 1;                      // last frames of a sequence that predict
+  int sequence_length() const { return sequence > 0 ? sequence : model.window; }
   std::vector<std::pair<int, double>> lr{{0, 1e-3}};  // (first epoch, rate), piecewise constant
   double grad_clip = 5.0;                      // max global gradient norm (0 = off)
   LossWeights loss;

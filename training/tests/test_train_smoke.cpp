@@ -7,12 +7,14 @@
 #include "trainer.hpp"
 
 #include "handsteady/error.hpp"
+#include "handsteady/skeleton.hpp"
 #include "handsteady/stgae_model.hpp"
 #include "handsteady/synth.hpp"
 
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -133,6 +135,175 @@ TEST_CASE("corruption chains are seeded and checked") {
   CHECK((a[7] - clean[7]).norm() > 1e-5);
 }
 
+TEST_CASE("clips are split where a joint jumps faster than a hand moves") {
+  HandSeries s;
+  for (int i = 0; i < 30; ++i) {
+    s.t.push_back(i / 30.0);
+    s.pos.push_back(line_pose(0.001 * i + (i >= 12 ? 0.5 : 0.0)));  // 0.5 m in one frame: re-acquired
+  }
+  const ClipSet c = make_clips({s}, 30.0, {1.0}, 5);
+  REQUIRE(c.clips.size() == 2);
+  CHECK(c.clips[0].size() == 12);
+  CHECK(c.clips[1].size() == 18);
+}
+
+TEST_CASE("random corruption: seeded, varied, per-joint strength, dropped joints stay dropped") {
+  std::vector<Pose> clean;
+  for (int i = 0; i < 60; ++i) clean.push_back(line_pose(0.002 * i));
+  const auto a = corrupt_chain(clean, 30.0, {"random"}, 11), b = corrupt_chain(clean, 30.0, {"random"}, 11);
+  bool same = true;  // NaN (a dropped joint) equals NaN here
+  for (size_t i = 0; i < a.size(); ++i)
+    for (int j = 0; j < kJointCount; ++j)
+      for (int k = 0; k < 3; ++k) same = same && (a[i](j, k) == b[i](j, k) || (std::isnan(a[i](j, k)) && std::isnan(b[i](j, k))));
+  CHECK(same);
+  CHECK(parse_preset_chain("random") == std::vector<std::string>{"random"});
+  CHECK_THROWS_AS(parse_preset_chain("random+tracker"), std::invalid_argument);
+  // Over many seeds: some corruption is strong, some weak, and the per-joint factors differ.
+  double lo = 1e9, hi = 0;
+  for (uint64_t seed = 0; seed < 40; ++seed) {
+    std::mt19937_64 rng(seed);
+    const RandomCorruption rc = random_corruption(rng, 30.0);
+    REQUIRE(!rc.steps.empty());
+    const auto [mn, mx] = std::minmax_element(rc.joint_scale.begin(), rc.joint_scale.end());
+    CHECK(*mn >= 0.5);
+    CHECK(*mx <= 1.5);
+    CHECK(*mx - *mn > 0.1);
+    const auto out = apply_random_corruption(clean, 30.0, rc, seed);
+    double sum = 0;
+    int n = 0;
+    for (size_t i = 0; i < out.size(); ++i)
+      for (int j = 0; j < kJointCount; ++j)
+        if (out[i].row(j).allFinite()) {
+          sum += (out[i].row(j) - clean[i].row(j)).norm();
+          ++n;
+        }
+    const double mean = sum / std::max(n, 1);
+    lo = std::min(lo, mean);
+    hi = std::max(hi, mean);
+  }
+  CHECK(lo < 1.5e-3);
+  CHECK(hi > 5e-3);
+  // A joint scale of 0 removes that joint's corruption, NaN drops survive the scaling.
+  std::mt19937_64 rng(3);
+  RandomCorruption rc = random_corruption(rng, 30.0);
+  rc.steps.front().kind = CorruptionKind::Tracker;
+  rc.steps.front().tracker = TrackerCorruption{};
+  rc.steps.front().tracker.jitter_sd_m = 0.003;
+  rc.steps.front().tracker.joint_drop_prob = 0.3;
+  rc.steps.resize(1);
+  rc.joint_scale.fill(1.0);
+  rc.joint_scale[static_cast<size_t>(idx(Joint::IndexTip))] = 0.0;
+  const auto out = apply_random_corruption(clean, 30.0, rc, 8);
+  int dropped = 0;
+  for (size_t i = 0; i < out.size(); ++i) {
+    const auto tip = out[i].row(idx(Joint::IndexTip));
+    if (tip.allFinite()) CHECK((tip - clean[i].row(idx(Joint::IndexTip))).norm() == 0.0);
+    for (int j = 0; j < kJointCount; ++j) dropped += !out[i].row(j).allFinite();
+  }
+  CHECK(dropped > 100);
+}
+
+TEST_CASE("sources are drawn by weight; still and reshaped windows") {
+  SynthMotionParams p;
+  p.duration_s = 3;
+  ClipSet clips;
+  clips.append(make_clips({synth_motion(p, Hand::Right, 1)}, 30.0, {1.0}, 10), 3.0);
+  clips.append(make_clips({synth_motion(p, Hand::Right, 2)}, 30.0, {1.0}, 10), 1.0);
+  REQUIRE(clips.group_weight.size() == 2);
+  AugmentConfig aug;
+  aug.rotate = false;
+  aug.translate_m = 0;
+  aug.scale_min = aug.scale_max = 1.0;
+  aug.mirror_prob = 0;
+  // Which source a window came from: its first frame is a frame of that clip.
+  const auto from_first = [&](const Pose& q) {
+    for (const auto& f : clips.clips[0])
+      if ((f - q).norm() < 1e-12) return 0;
+    return 1;
+  };
+  {
+    const WindowSampler sampler(clips, 8, 2, 30.0, aug, {{{}, 1.0}});
+    std::mt19937_64 rng(5);
+    int first = 0;
+    for (int i = 0; i < 400; ++i) first += from_first(sampler.draw(rng).truth[0]) == 0;
+    CHECK(first > 260);  // 3:1 -> 300 expected
+    CHECK(first < 340);
+  }
+  {
+    AugmentConfig still = aug;
+    still.still_prob = 1.0;
+    const WindowSampler sampler(clips, 8, 2, 30.0, still, {{{}, 1.0}});
+    std::mt19937_64 rng(6);
+    const Window w = sampler.draw(rng);
+    for (const auto& q : w.truth) CHECK((q - w.truth[0]).norm() == 0.0);
+  }
+  {
+    AugmentConfig shaped = aug;
+    shaped.shape_prob = 1.0;
+    const WindowSampler sampler(clips, 8, 2, 30.0, shaped, {{{}, 1.0}});
+    std::mt19937_64 rng(7);
+    const auto& bones = xr_hand_skeleton().bones;
+    int changed = 0;
+    for (int i = 0; i < 10; ++i) {
+      const Window w = sampler.draw(rng);
+      const Pose& ref = clips.clips[0][0];
+      for (const auto& [a, b] : bones)
+        changed += std::abs((w.truth[0].row(a) - w.truth[0].row(b)).norm() - (ref.row(a) - ref.row(b)).norm()) > 1e-4;
+    }
+    CHECK(changed > 50);
+  }
+}
+
+TEST_CASE("data sources in the config: lists, legacy FPHA keys, errors by key") {
+  const auto c = parse_train_config(R"({"model": {}, "data": {
+      "train": [{"fpha": "/d/fpha", "subjects": [1, 2], "weight": 2}, {"path": "/d/leap", "exclude": ["s04_"]}],
+      "val": [{"path": "/d/manip", "include": ["cup1"]}]},
+      "augment": {"shape_prob": 0.5, "still_prob": 0.1},
+      "train": {"sequence": 24, "predict_frames": 4}, "loss": {"predict_smooth": 0.5}})");
+  REQUIRE(c.train_sources.size() == 2);
+  CHECK(c.train_sources[0].fpha);
+  CHECK(c.train_sources[0].weight == 2.0);
+  CHECK(c.train_sources[1].exclude == std::vector<std::string>{"s04_"});
+  CHECK(c.val_sources[0].include == std::vector<std::string>{"cup1"});
+  CHECK(c.sequence_length() == 24);
+  CHECK(c.loss.predict_smooth == 0.5);
+  const auto legacy = parse_train_config(R"({"model": {}, "data": {"root": "/r", "train_subjects": [3]}})");
+  REQUIRE(legacy.train_sources.size() == 1);
+  CHECK(legacy.train_sources[0].subjects == std::vector<int>{3});
+  CHECK(legacy.val_sources[0].subjects == std::vector<int>{5});
+  auto error_field = [](const std::string& text) {
+    try {
+      (void)parse_train_config(text, "cfg.json");
+    } catch (const InputError& e) {
+      return e.where().field;
+    }
+    return std::string("(no error)");
+  };
+  CHECK(error_field(R"({"model": {}, "data": {"root": "/r", "train": [{"path": "x"}], "val": [{"path": "y"}]}})") == "data");
+  CHECK(error_field(R"({"model": {}, "data": {"train": [{"path": "x"}]}})") == "data");
+  CHECK(error_field(R"({"model": {}, "data": {"train": [{"fpha": "x"}], "val": [{"path": "y"}]}})") == "data.train[0].subjects");
+  CHECK(error_field(R"({"model": {}, "data": {"train": [{"path": "x", "bogus": 1}], "val": [{"path": "y"}]}})") ==
+        "data.train[0].bogus");
+  CHECK(error_field(R"({"model": {}, "data": {"train": [{"path": "x"}], "val": [{"path": "y", "weight": 0}]}})") ==
+        "data.val[0].weight");
+  CHECK(error_field(R"({"model": {}, "augment": {"still_prob": 2}})") == "augment.still_prob");
+  CHECK(error_field(R"({"model": {"window": 8}, "train": {"sequence": 4}})") == "train.sequence");
+  CHECK(error_field(R"({"model": {"window": 8}, "train": {"sequence": 12, "predict_frames": 12}})") == "train.predict_frames");
+  // Files of a source: include/exclude by name, sorted; a missing path is an error naming it.
+  const auto dir = temp_dir("sources");
+  for (const char* f : {"s01_a.csv", "s04_b.csv", "notes.txt", "m.bvh"}) std::ofstream(dir / f) << "";
+  DataSource d;
+  d.path = dir;
+  d.exclude = {"s04_"};
+  const auto files = source_files(d);
+  REQUIRE(files.size() == 2);
+  CHECK(files[0].filename() == "m.bvh");
+  CHECK(files[1].filename() == "s01_a.csv");
+  d.path = dir / "missing";
+  CHECK_THROWS_AS(source_files(d), InputError);
+  std::filesystem::remove_all(dir);
+}
+
 TEST_CASE("training config errors name the key") {
   auto error_field = [](const std::string& text) {
     try {
@@ -182,6 +353,24 @@ TEST_CASE("two tiny epochs on synthetic motion: the loss decreases, the model fi
   REQUIRE(r2.epochs.size() == 1);
   CHECK(r2.epochs[0].epoch == 2);
   CHECK(r2.epochs[0].train_loss < r.epochs[0].train_loss);
+
+  // Longer training sequences with predictions at several frames and their smoothness.
+  {
+    TrainConfig seq = config;
+    seq.sequence = 12;
+    seq.predict_frames = 4;
+    seq.loss.predict_smooth = 0.5;
+    seq.epochs = 1;
+    TrainOptions o;
+    o.out = dir / "seq.hsm";
+    o.progress = false;
+    std::ostringstream l;
+    const TrainResult rs = train_stgae(seq, o, l);
+    INFO(l.str());
+    REQUIRE(rs.epochs.size() == 1);
+    CHECK(std::isfinite(rs.epochs[0].val_loss));
+    CHECK(load_hsm(o.out, true)->config.window == 8);
+  }
 
   // A checkpoint of another architecture is refused.
   TrainConfig other = config;

@@ -7,6 +7,7 @@
 // observed future. One Euro is tuned per noise cell on the declared tuning split only.
 #include "handsteady/corrupt.hpp"
 #include "handsteady/filters.hpp"
+#include "handsteady/hand_shape.hpp"
 #include "handsteady/metrics.hpp"
 #include "handsteady/track.hpp"
 
@@ -50,15 +51,11 @@ struct NoiseCell {
 };
 std::vector<NoiseCell> noise_grid(bool quick);
 
-// Hand proportions and joint placements of other runtimes, applied to the truth.
-enum class ShapeKind { Standard, Scale, BoneJitter, WristProximal, PalmCentroid, ThumbBase };
-struct ShapeVariant {
-  std::string name;
-  ShapeKind kind = ShapeKind::Standard;
-  double amount = 0.0;  // Scale: factor; BoneJitter: +- ratio; WristProximal: metres
-};
+// The hands the benchmark scores on (handsteady/hand_shape.hpp), applied to the truth.
+using hs::ShapeKind;
+using hs::ShapeVariant;
+using hs::apply_shape;
 std::vector<ShapeVariant> shape_variants(bool quick);
-HandSeries apply_shape(const HandSeries& series, const ShapeVariant& shape, uint64_t seed);
 
 // The rows a tracker at rate_hz would give: times k / rate +- 20 % of a period (seeded),
 // the truth interpolated there.
