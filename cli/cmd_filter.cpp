@@ -185,7 +185,7 @@ void predict_rows(const StgaeNet<float>& net, const StgaeFrames<float>& grid, co
 }
 
 // Offline (window-mode) denoising of one hand with a centred model. The tracked rows are
-// cut into segments wherever the hand is lost for more than kStgaeGapResetS (as the
+// cut into segments wherever the hand is lost for more than kModelResetGapS (as the
 // streaming adapter resets there). Each segment is resampled onto the model grid
 // t0 + k / rate_hz by per-joint linear interpolation between the bracketing rows (a joint
 // missing in one of them takes the other's value; missing in both: NaN, hole-filled by
@@ -216,7 +216,7 @@ HandSeries offline_series(const StgaeModel& model, const HandSeries& in, double 
   size_t a = 0;
   while (a < tracked.size()) {
     size_t b = a;  // segment = tracked[a..b]
-    while (b + 1 < tracked.size() && in.t[tracked[b + 1]] - in.t[tracked[b]] <= kStgaeGapResetS) ++b;
+    while (b + 1 < tracked.size() && in.t[tracked[b + 1]] - in.t[tracked[b]] <= kModelResetGapS) ++b;
     const double t0 = in.t[tracked[a]], t1 = in.t[tracked[b]];
     const int frames = 1 + static_cast<int>(std::ceil((t1 - t0) / period - 1e-9));
 

@@ -210,7 +210,7 @@ TEST_CASE("stgae with one stream and a zero-offset model reproduces the ramp at 
   for (const double rate : {20.0, 45.0, 90.0, 120.0, 0.0}) {
     CAPTURE(rate);
     const auto times = rate > 0 ? regular_times(rate, 2.0) : irregular_times(2.0);
-    // Left: lost for 0.5 s from t = 1 s (longer than kStgaeGapResetS: the grid restarts).
+    // Left: lost for 0.5 s from t = 1 s (longer than kModelResetGapS: the grid restarts).
     hs::write_track_csv(ramp_track(times, 1.0, 1.5), dir / "in.csv");
     const hs::Track in = hs::read_track_csv(dir / "in.csv");
     const hs::Track out = run_ok(in, dir, "--method stgae --phases 1 --model " + quoted(models().zero_causal));
@@ -228,7 +228,7 @@ TEST_CASE("stgae with one stream and a zero-offset model reproduces the ramp at 
         continue;
       }
       Ticks& ticks = left ? left_ticks : right_ticks;
-      if (left && left_lost) ticks = Ticks{};  // lost > kStgaeGapResetS: the grid restarts
+      if (left && left_lost) ticks = Ticks{};  // lost > kModelResetGapS: the grid restarts
       if (left) left_lost = false;
       const double tick = ticks.at(a.t);
       const Pose expected = left ? ramp_pose(kLeftBase, kLeftV, tick) : ramp_pose(kRightBase, kRightV, tick);

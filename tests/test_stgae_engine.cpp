@@ -431,13 +431,13 @@ TEST_CASE("PoseFilter adapter: resampling onto the model grid, horizons, gaps") 
   g->estimate(1.0 + 5 * dt, b);
   CHECK((a - b).cwiseAbs().maxCoeff() <= 1e-5);
 
-  // A gap longer than kStgaeGapResetS resets: afterwards the filter behaves like a fresh one.
+  // A gap longer than kModelResetGapS resets: afterwards the filter behaves like a fresh one.
   auto h = hs::make_stgae_filter(model, 0.0);
   for (int t = 0; t < 6; ++t) h->push(1.0 + t * dt, pose_at(src, t));
   h->push(1.0 + 6 * dt, hs::untracked_pose());  // hand lost
   h->estimate(1.0 + 6 * dt, a);
   CHECK(a.allFinite());  // still within the gap tolerance
-  const double t0 = 1.0 + 6 * dt + hs::kStgaeGapResetS + 0.05;
+  const double t0 = 1.0 + 6 * dt + hs::kModelResetGapS + 0.05;
   auto fresh = hs::make_stgae_filter(model, 0.0);
   for (int t = 0; t < 4; ++t) {
     h->push(t0 + t * dt, pose_at(src, 6 + t));

@@ -69,8 +69,8 @@ class StgaeFilter final : public PoseFilter {
       any = any || ok;
     }
     if (!any) return true;  // hand lost in this frame: nothing to resample
-    // A tracking gap longer than kStgaeGapResetS: the history no longer describes the hand.
-    if (have_grid_ && t - last_valid_t_ > kStgaeGapResetS) restart_grid();
+    // A tracking gap longer than kModelResetGapS: the history no longer describes the hand.
+    if (have_grid_ && t - last_valid_t_ > kModelResetGapS) restart_grid();
     last_valid_t_ = t;
     if (!have_grid_) {
       grid_t0_ = t;  // the grid starts at the first sample, with one phase until the rate is known
@@ -121,7 +121,7 @@ class StgaeFilter final : public PoseFilter {
       if (back > 0 && !(p.have && p.warm)) continue;
       const double w = back == 0 ? 1.0 : kOlderPhaseWeight;
       for (int j = 0; j < n_; ++j) {
-        if (last_t_ - seen_t_[static_cast<size_t>(j)] > kStgaeGapResetS) continue;  // expired / never seen
+        if (last_t_ - seen_t_[static_cast<size_t>(j)] > kModelResetGapS) continue;  // expired / never seen
         for (int c = 0; c < 3; ++c) out(j, c) = (back == 0 ? 0.0 : out(j, c)) + w * path_at(p, tq, 3 * j + c);
       }
       wsum += w;

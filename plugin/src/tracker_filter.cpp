@@ -26,7 +26,7 @@ std::unique_ptr<PoseFilter> make_layer_engine(const LayerConfig& c) {
 }
 
 double reset_gap_s(const LayerConfig& c) {
-  return c.engine == Engine::Stgae ? std::min(c.filter.max_gap_s, kStgaeGapResetS) : c.filter.max_gap_s;
+  return c.engine == Engine::Stgae ? std::min(c.filter.max_gap_s, kModelResetGapS) : c.filter.max_gap_s;
 }
 
 // How far past its newest processed sample the engine answers: the largest horizon a

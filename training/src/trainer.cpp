@@ -272,7 +272,10 @@ TrainConfig parse_train_config(std::string_view text, const std::string& source)
   lo.get("smooth", c.loss.smooth);
   lo.get("predict", c.loss.predict);
   lo.get("predict_smooth", c.loss.predict_smooth);
+  lo.get("relative_eps_mm", c.loss.relative_eps_mm);
   lo.finish();
+  if (!(c.loss.relative_eps_mm >= 0 && std::isfinite(c.loss.relative_eps_mm)))
+    config_error(source, "loss.relative_eps_mm", "must be finite and >= 0");
   for (double w : {c.loss.pose, c.loss.bone, c.loss.symmetry, c.loss.smooth, c.loss.predict, c.loss.predict_smooth})
     if (!(w >= 0 && std::isfinite(w))) config_error(source, "loss", "weights must be finite and >= 0");
   return c;
@@ -385,16 +388,30 @@ class LossFn {
     const auto X = denoised_positions(c_.model, b.x, out);
     const auto Xt = b.truth.narrow(1, 0, T);
     Losses l;
-    auto pose = (X - Xt).pow(2).mean() * kCm2;
+    // Relative weighting: each window's denoising terms divided by its input's own squared
+    // error (+ eps^2), normalised to mean 1 over the batch, so nearly clean windows count
+    // as much as heavily corrupted ones (a model must never be worse than clean input).
+    torch::Tensor w;
+    if (c_.loss.relative_eps_mm > 0) {
+      torch::NoGradGuard no_grad;
+      const double eps_cm = c_.loss.relative_eps_mm * 0.1;
+      w = 1.0 / ((b.x - Xt).pow(2).sum(-1).mean({1, 2}) * kCm2 + eps_cm * eps_cm);
+      w = w / w.mean();
+    }
+    const auto wmean = [&w](const torch::Tensor& err) {
+      if (!w.defined()) return err.mean();
+      return (err.reshape({err.size(0), -1}).mean(1) * w).mean();
+    };
+    auto pose = wmean((X - Xt).pow(2)) * kCm2;
     auto total = c_.loss.pose * pose;
     l.pose = pose.item<double>();
     if (c_.loss.bone > 0) {
-      auto bone = edge_error(X, Xt, bone_a_, bone_b_);
+      auto bone = wmean(edge_error(X, Xt, bone_a_, bone_b_)) * kCm2;
       total = total + c_.loss.bone * bone;
       l.bone = bone.item<double>();
     }
     if (c_.loss.symmetry > 0) {
-      auto sym = edge_error(X, Xt, sym_a_, sym_b_);
+      auto sym = wmean(edge_error(X, Xt, sym_a_, sym_b_)) * kCm2;
       total = total + c_.loss.symmetry * sym;
       l.sym = sym.item<double>();
     }
@@ -402,7 +419,7 @@ class LossFn {
       auto acc = [T](const torch::Tensor& p) {
         return p.narrow(1, 2, T - 2) - 2 * p.narrow(1, 1, T - 2) + p.narrow(1, 0, T - 2);
       };
-      auto smooth = (acc(X) - acc(Xt)).pow(2).mean() * kCm2;
+      auto smooth = wmean((acc(X) - acc(Xt)).pow(2)) * kCm2;
       total = total + c_.loss.smooth * smooth;
       l.smooth = smooth.item<double>();
     }
@@ -450,7 +467,7 @@ class LossFn {
   }
   static torch::Tensor edge_error(const torch::Tensor& X, const torch::Tensor& Xt, const torch::Tensor& a,
                                   const torch::Tensor& b) {
-    return (lengths(X, a, b) - lengths(Xt, a, b)).pow(2).mean() * kCm2;
+    return (lengths(X, a, b) - lengths(Xt, a, b)).pow(2);  // [B, T, edges], m^2
   }
   const TrainConfig& c_;
   torch::Tensor bone_a_, bone_b_, sym_a_, sym_b_;

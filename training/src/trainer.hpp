@@ -27,6 +27,9 @@ struct LossWeights {
   // path (the last two denoised frames, then the predicted ones) and, with
   // train.predict_frames >= 3, of each horizon's prediction from frame to frame.
   double predict_smooth = 0.0;
+  // > 0: the denoising terms of each window are weighted by 1 / (its input's mean squared
+  // joint error + relative_eps_mm^2), normalised to mean 1 per batch; 0: plain means.
+  double relative_eps_mm = 0.0;
 };
 
 struct TrainConfig {

@@ -259,7 +259,7 @@ TEST_CASE("data sources in the config: lists, legacy FPHA keys, errors by key") 
       "train": [{"fpha": "/d/fpha", "subjects": [1, 2], "weight": 2}, {"path": "/d/leap", "exclude": ["s04_"]}],
       "val": [{"path": "/d/manip", "include": ["cup1"]}]},
       "augment": {"shape_prob": 0.5, "still_prob": 0.1},
-      "train": {"sequence": 24, "predict_frames": 4}, "loss": {"predict_smooth": 0.5}})");
+      "train": {"sequence": 24, "predict_frames": 4}, "loss": {"predict_smooth": 0.5, "relative_eps_mm": 0.5}})");
   REQUIRE(c.train_sources.size() == 2);
   CHECK(c.train_sources[0].fpha);
   CHECK(c.train_sources[0].weight == 2.0);
@@ -267,6 +267,7 @@ TEST_CASE("data sources in the config: lists, legacy FPHA keys, errors by key") 
   CHECK(c.val_sources[0].include == std::vector<std::string>{"cup1"});
   CHECK(c.sequence_length() == 24);
   CHECK(c.loss.predict_smooth == 0.5);
+  CHECK(c.loss.relative_eps_mm == 0.5);
   const auto legacy = parse_train_config(R"({"model": {}, "data": {"root": "/r", "train_subjects": [3]}})");
   REQUIRE(legacy.train_sources.size() == 1);
   CHECK(legacy.train_sources[0].subjects == std::vector<int>{3});
@@ -287,6 +288,7 @@ TEST_CASE("data sources in the config: lists, legacy FPHA keys, errors by key") 
   CHECK(error_field(R"({"model": {}, "data": {"train": [{"path": "x"}], "val": [{"path": "y", "weight": 0}]}})") ==
         "data.val[0].weight");
   CHECK(error_field(R"({"model": {}, "augment": {"still_prob": 2}})") == "augment.still_prob");
+  CHECK(error_field(R"({"model": {}, "loss": {"relative_eps_mm": -1}})") == "loss.relative_eps_mm");
   CHECK(error_field(R"({"model": {"window": 8}, "train": {"sequence": 4}})") == "train.sequence");
   CHECK(error_field(R"({"model": {"window": 8}, "train": {"sequence": 12, "predict_frames": 12}})") == "train.predict_frames");
   // Files of a source: include/exclude by name, sorted; a missing path is an error naming it.
@@ -360,6 +362,7 @@ TEST_CASE("two tiny epochs on synthetic motion: the loss decreases, the model fi
     seq.sequence = 12;
     seq.predict_frames = 4;
     seq.loss.predict_smooth = 0.5;
+    seq.loss.relative_eps_mm = 0.5;
     seq.epochs = 1;
     TrainOptions o;
     o.out = dir / "seq.hsm";

@@ -1,6 +1,8 @@
 // Ink metrics: distance to the font, coverage, jerk, latency (docs/HANDWRITING.md).
 #include "handsteady/ink.hpp"
 
+#include "handsteady/gap_policy.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -106,13 +108,12 @@ class IndexTipTrack {
     if (t_.empty() || !(t >= t_.front() && t <= t_.back())) return std::nullopt;
     const auto i = static_cast<size_t>(std::lower_bound(t_.begin(), t_.end(), t) - t_.begin());
     if (t_[i] == t) return tracked(p_[i]);
-    if (t_[i] - t_[i - 1] > kMaxGap_s || !tracked(p_[i]) || !tracked(p_[i - 1])) return std::nullopt;
+    if (t_[i] - t_[i - 1] > kInterpolateMaxGapS || !tracked(p_[i]) || !tracked(p_[i - 1])) return std::nullopt;
     const double w = (t - t_[i - 1]) / (t_[i] - t_[i - 1]);
     return (1.0 - w) * p_[i - 1] + w * p_[i];
   }
 
  private:
-  static constexpr double kMaxGap_s = 0.25;
   static std::optional<Eigen::Vector3d> tracked(const Eigen::Vector3d& p) {
     return std::isnan(p.x()) ? std::nullopt : std::optional<Eigen::Vector3d>(p);
   }

@@ -3,6 +3,7 @@
 // be missing), ask for the estimate at any time >= the last input.
 // Real-time safe: push/estimate never allocate, never throw.
 // Equations, defaults and the handling of gaps: docs/FILTERS.md.
+#include "handsteady/gap_policy.hpp"
 #include "handsteady/track.hpp"
 
 #include <memory>
@@ -65,7 +66,7 @@ struct FilterConfig {
   KalmanParams kalman;
   // A joint unseen for longer than this (relative to the last input) has no estimate
   // and re-initialises when it reappears.
-  double max_gap_s = 0.5;
+  double max_gap_s = kFilterForgetGapS;
 };
 
 // Throws std::invalid_argument naming the parameter when a parameter is out of range.

@@ -3,6 +3,7 @@
 // frames, interleaved streams for input faster than the model, answers at any time along
 // the denoised/predicted path. Design notes: docs/STGAE.md "Streaming at any rate".
 #include "handsteady/filters.hpp"
+#include "handsteady/gap_policy.hpp"
 #include "handsteady/stgae_model.hpp"
 
 #include <memory>
@@ -19,9 +20,8 @@ namespace hs {
 // is a frame at its own time, missed samples are bridged (docs/STGAE.md). estimate(t):
 // horizon 0 -> the denoised latest model frame, moved by the linear trend to t; horizon >
 // 0 -> the predicted frames interpolated at t + horizon_s. The hand lost (no valid joint)
-// for more than kStgaeGapResetS resets the streams. Throws std::invalid_argument for a
+// for more than kModelResetGapS resets the streams. Throws std::invalid_argument for a
 // centred model, a negative horizon or phases outside 0..kStgaeMaxPhases.
-inline constexpr double kStgaeGapResetS = 0.3;
 inline constexpr int kStgaeMaxPhases = 4;
 std::unique_ptr<PoseFilter> make_stgae_filter(std::shared_ptr<const StgaeModel> model, double horizon_s,
                                               int phases = 0);
