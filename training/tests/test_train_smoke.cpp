@@ -53,6 +53,16 @@ const char* kTinyConfig = R"({
   "loss": {"smooth": 0.1}
 })";
 
+// The key a config error names ("(no error)" when the config parses).
+std::string error_field(const std::string& text) {
+  try {
+    (void)parse_train_config(text, "cfg.json");
+  } catch (const InputError& e) {
+    return e.where().field;
+  }
+  return "(no error)";
+}
+
 }  // namespace
 
 TEST_CASE("input features: hole filling and the 6 channels by hand") {
@@ -272,14 +282,6 @@ TEST_CASE("data sources in the config: lists, legacy FPHA keys, errors by key") 
   REQUIRE(legacy.train_sources.size() == 1);
   CHECK(legacy.train_sources[0].subjects == std::vector<int>{3});
   CHECK(legacy.val_sources[0].subjects == std::vector<int>{5});
-  auto error_field = [](const std::string& text) {
-    try {
-      (void)parse_train_config(text, "cfg.json");
-    } catch (const InputError& e) {
-      return e.where().field;
-    }
-    return std::string("(no error)");
-  };
   CHECK(error_field(R"({"model": {}, "data": {"root": "/r", "train": [{"path": "x"}], "val": [{"path": "y"}]}})") == "data");
   CHECK(error_field(R"({"model": {}, "data": {"train": [{"path": "x"}]}})") == "data");
   CHECK(error_field(R"({"model": {}, "data": {"train": [{"fpha": "x"}], "val": [{"path": "y"}]}})") == "data.train[0].subjects");
@@ -307,14 +309,6 @@ TEST_CASE("data sources in the config: lists, legacy FPHA keys, errors by key") 
 }
 
 TEST_CASE("training config errors name the key") {
-  auto error_field = [](const std::string& text) {
-    try {
-      (void)parse_train_config(text, "cfg.json");
-    } catch (const InputError& e) {
-      return e.where().field;
-    }
-    return std::string("(no error)");
-  };
   CHECK(error_field(R"({"model": {}, "train": {"epochs": 0}})") == "train.epochs");
   CHECK(error_field(R"({"model": {}, "train": {"epocs": 3}})") == "train.epocs");
   CHECK(error_field(R"({"model": {}, "train": {"lr": [[1, 0.001]]}})") == "train.lr");
