@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 namespace hs::train {
@@ -84,7 +85,7 @@ void ClipSet::append(ClipSet&& other, double weight) {
 }
 
 ClipSet make_clips(const std::vector<HandSeries>& series, double rate_hz, const std::vector<double>& speed_factors,
-                   int min_frames) {
+                   int min_frames, double split_speed_mps) {
   ClipSet out;
   for (const double speed : speed_factors) {
     if (!(speed > 0.0)) throw std::invalid_argument("speed factors must be positive");
@@ -102,7 +103,7 @@ ClipSet make_clips(const std::vector<HandSeries>& series, double rate_hz, const 
         }
         piece.clear();
       };
-      const double max_step = kClipMaxJointSpeed_mps / rate_hz;
+      const double max_step = split_speed_mps > 0.0 ? split_speed_mps / rate_hz : std::numeric_limits<double>::infinity();
       for (const auto& p : r.pos) {
         if (!fully_tracked(p)) {
           flush();

@@ -75,14 +75,12 @@ struct ClipSet {
   void append(ClipSet&& other, double weight);  // other as one more group
 };
 
-// A joint faster than this between two frames is a tracker re-acquiring the hand (Leap
-// Motion's recordings have such jumps), not motion: clips are split there.
-inline constexpr double kClipMaxJointSpeed_mps = 8.0;
-
 // Resamples each series at rate_hz for each playback speed and splits it at frames
-// with an untracked joint or a jump; pieces shorter than min_frames are dropped.
+// with an untracked joint, and (split_speed_mps > 0) where a joint moves faster than
+// that between two frames: a tracker re-acquiring the hand (Leap Motion's recordings
+// have such jumps) is not motion to learn. Pieces shorter than min_frames are dropped.
 ClipSet make_clips(const std::vector<HandSeries>& series, double rate_hz, const std::vector<double>& speed_factors,
-                   int min_frames);
+                   int min_frames, double split_speed_mps = 0.0);
 // Right hands of FPHA takes under root/Subject_<s> for each subject (InputError if a
 // subject directory is missing).
 std::vector<HandSeries> load_fpha_subjects(const std::filesystem::path& root, const std::vector<int>& subjects);

@@ -150,11 +150,13 @@ TrainConfig parse_train_config(std::string_view text, const std::string& source)
   data.get("val_subjects", val_subjects);
   const json* train_src = data.raw("train");
   const json* val_src = data.raw("val");
+  data.get("split_speed_mps", c.split_speed_mps);
   data.get("synthetic_takes", c.synthetic_takes);
   data.get("synthetic_seconds", c.synthetic_seconds);
   data.finish();
   if (c.synthetic_takes < 0 || c.synthetic_takes > 10000) config_error(source, "data.synthetic_takes", "must be in [0, 10000]");
   if (!(c.synthetic_seconds > 0)) config_error(source, "data.synthetic_seconds", "must be positive");
+  if (!(c.split_speed_mps >= 0 && std::isfinite(c.split_speed_mps))) config_error(source, "data.split_speed_mps", "must be finite and >= 0");
   if (legacy && (train_src || val_src))
     config_error(source, "data", "give either root/train_subjects/val_subjects (FPHA) or train/val source lists");
   if (legacy || (!train_src && !val_src)) {
@@ -653,8 +655,10 @@ void load_clips(const TrainConfig& c, int min_frames, ClipSet& train, ClipSet& v
     val.append(make_clips(vs, rate, {1.0}, min_frames), 1.0);
     return;
   }
-  for (const auto& s : c.train_sources) train.append(make_clips(load_source(s), rate, c.augment.speed_factors, min_frames), s.weight);
-  for (const auto& s : c.val_sources) val.append(make_clips(load_source(s), rate, {1.0}, min_frames), 1.0);
+  const double split = c.split_speed_mps;
+  for (const auto& s : c.train_sources)
+    train.append(make_clips(load_source(s), rate, c.augment.speed_factors, min_frames, split), s.weight);
+  for (const auto& s : c.val_sources) val.append(make_clips(load_source(s), rate, {1.0}, min_frames, split), 1.0);
 }
 
 // Writes to a temporary name and renames, so an interrupted run never leaves a torn file.

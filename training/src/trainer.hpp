@@ -39,6 +39,7 @@ struct TrainConfig {
   // synthetic_takes > 0 (tests, no data needed).
   std::vector<DataSource> train_sources{fpha_source("../shared/data/fpha", {1, 2, 3, 4})};
   std::vector<DataSource> val_sources{fpha_source("../shared/data/fpha", {5})};
+  double split_speed_mps = 0.0;  // make_clips: split clips at joints faster than this (0 = off)
   int synthetic_takes = 0;
   double synthetic_seconds = 20.0;
   AugmentConfig augment;

@@ -151,7 +151,8 @@ TEST_CASE("clips are split where a joint jumps faster than a hand moves") {
     s.t.push_back(i / 30.0);
     s.pos.push_back(line_pose(0.001 * i + (i >= 12 ? 0.5 : 0.0)));  // 0.5 m in one frame: re-acquired
   }
-  const ClipSet c = make_clips({s}, 30.0, {1.0}, 5);
+  CHECK(make_clips({s}, 30.0, {1.0}, 5).clips.size() == 1);  // splitting is off by default
+  const ClipSet c = make_clips({s}, 30.0, {1.0}, 5, 8.0);
   REQUIRE(c.clips.size() == 2);
   CHECK(c.clips[0].size() == 12);
   CHECK(c.clips[1].size() == 18);
@@ -291,6 +292,7 @@ TEST_CASE("data sources in the config: lists, legacy FPHA keys, errors by key") 
         "data.val[0].weight");
   CHECK(error_field(R"({"model": {}, "augment": {"still_prob": 2}})") == "augment.still_prob");
   CHECK(error_field(R"({"model": {}, "loss": {"relative_eps_mm": -1}})") == "loss.relative_eps_mm");
+  CHECK(error_field(R"({"model": {}, "data": {"split_speed_mps": -1}})") == "data.split_speed_mps");
   CHECK(error_field(R"({"model": {"window": 8}, "train": {"sequence": 4}})") == "train.sequence");
   CHECK(error_field(R"({"model": {"window": 8}, "train": {"sequence": 12, "predict_frames": 12}})") == "train.predict_frames");
   // Files of a source: include/exclude by name, sorted; a missing path is an error naming it.
