@@ -51,6 +51,18 @@ uint64_t mix_seed(uint64_t a, uint64_t b) {
   return z ^ (z >> 31);
 }
 
+// Frames at rate_hz corrupted by each step in turn, step k seeded by mix_seed(seed, k).
+std::vector<Pose> corrupt_steps(const std::vector<Pose>& clean, double rate_hz, const std::vector<CorruptionConfig>& steps,
+                                uint64_t seed) {
+  HandSeries s;
+  s.pos = clean;
+  s.t.resize(clean.size());
+  for (size_t i = 0; i < clean.size(); ++i) s.t[i] = static_cast<double>(i) / rate_hz;
+  uint64_t k = 0;
+  for (const auto& c : steps) s = corrupt_series(s, c, mix_seed(seed, k++));
+  return s.pos;
+}
+
 }  // namespace
 
 std::vector<std::string> parse_preset_chain(const std::string& text) {
@@ -223,13 +235,9 @@ std::vector<Pose> corrupt_chain(const std::vector<Pose>& clean, double rate_hz, 
     const RandomCorruption rc = random_corruption(rng, rate_hz);
     return apply_random_corruption(clean, rate_hz, rc, rng());
   }
-  HandSeries s;
-  s.pos = clean;
-  s.t.resize(clean.size());
-  for (size_t i = 0; i < clean.size(); ++i) s.t[i] = static_cast<double>(i) / rate_hz;
-  uint64_t k = 0;
-  for (const auto& name : presets) s = corrupt_series(s, corruption_preset(name), mix_seed(seed, k++));
-  return s.pos;
+  std::vector<CorruptionConfig> steps;
+  for (const auto& name : presets) steps.push_back(corruption_preset(name));
+  return corrupt_steps(clean, rate_hz, steps, seed);
 }
 
 RandomCorruption random_corruption(std::mt19937_64& rng, double rate_hz) {
@@ -265,17 +273,12 @@ RandomCorruption random_corruption(std::mt19937_64& rng, double rate_hz) {
 
 std::vector<Pose> apply_random_corruption(const std::vector<Pose>& clean, double rate_hz, const RandomCorruption& rc,
                                           uint64_t seed) {
-  HandSeries s;
-  s.pos = clean;
-  s.t.resize(clean.size());
-  for (size_t i = 0; i < clean.size(); ++i) s.t[i] = static_cast<double>(i) / rate_hz;
-  uint64_t k = 0;
-  for (const auto& c : rc.steps) s = corrupt_series(s, c, mix_seed(seed, k++));
+  std::vector<Pose> out = corrupt_steps(clean, rate_hz, rc.steps, seed);
   for (size_t i = 0; i < clean.size(); ++i)
     for (int j = 0; j < kJointCount; ++j)
-      if (s.pos[i].row(j).allFinite())  // a dropped joint stays dropped
-        s.pos[i].row(j) = clean[i].row(j) + rc.joint_scale[static_cast<size_t>(j)] * (s.pos[i].row(j) - clean[i].row(j));
-  return s.pos;
+      if (out[i].row(j).allFinite())  // a dropped joint stays dropped
+        out[i].row(j) = clean[i].row(j) + rc.joint_scale[static_cast<size_t>(j)] * (out[i].row(j) - clean[i].row(j));
+  return out;
 }
 
 WindowSampler::WindowSampler(const ClipSet& clips, int window, int horizon, double rate_hz, AugmentConfig augment,

@@ -371,6 +371,12 @@ torch::Tensor edge_index(const std::vector<Edge>& edges, bool first) {
   return torch::tensor(v, torch::kInt64);
 }
 
+// Second difference (acceleration per frame^2) along dim.
+torch::Tensor second_difference(const torch::Tensor& p, int64_t dim) {
+  const int64_t n = p.size(dim);
+  return p.narrow(dim, 2, n - 2) - 2 * p.narrow(dim, 1, n - 2) + p.narrow(dim, 0, n - 2);
+}
+
 struct Losses {
   torch::Tensor total;
   double pose = 0, bone = 0, sym = 0, smooth = 0, pred = 0, pred_smooth = 0;
@@ -418,10 +424,7 @@ class LossFn {
       l.sym = sym.item<double>();
     }
     if (c_.loss.smooth > 0 && T >= 3) {
-      auto acc = [T](const torch::Tensor& p) {
-        return p.narrow(1, 2, T - 2) - 2 * p.narrow(1, 1, T - 2) + p.narrow(1, 0, T - 2);
-      };
-      auto smooth = wmean((acc(X) - acc(Xt)).pow(2)) * kCm2;
+      auto smooth = wmean((second_difference(X, 1) - second_difference(Xt, 1)).pow(2)) * kCm2;
       total = total + c_.loss.smooth * smooth;
       l.smooth = smooth.item<double>();
     }
@@ -442,12 +445,9 @@ class LossFn {
             return torch::cat({den.narrow(1, T - P - 1, P).unsqueeze(2), den.narrow(1, T - P, P).unsqueeze(2), fut}, 2);
           };
           const auto pe = path(X, Y), pt = path(Xt, Yt);
-          auto acc = [](const torch::Tensor& p, int64_t dim) {
-            const int64_t n = p.size(dim);
-            return p.narrow(dim, 2, n - 2) - 2 * p.narrow(dim, 1, n - 2) + p.narrow(dim, 0, n - 2);
-          };
-          auto ps = (acc(pe, 2) - acc(pt, 2)).pow(2).mean();
-          if (P >= 3) ps = ps + (acc(Y, 1) - acc(Yt, 1)).pow(2).mean();  // each horizon over time
+          auto ps = (second_difference(pe, 2) - second_difference(pt, 2)).pow(2).mean();
+          if (P >= 3)  // each horizon over time
+            ps = ps + (second_difference(Y, 1) - second_difference(Yt, 1)).pow(2).mean();
           ps = ps * kCm2;
           total = total + c_.loss.predict_smooth * ps;
           l.pred_smooth = ps.item<double>();
