@@ -37,7 +37,7 @@ std::string slurp(const std::filesystem::path& f) {
 
 }  // namespace
 
-TEST_CASE("outliers: single joints jump 10-50 mm for 1-3 rows; the other noise draws the same as without them") {
+TEST_CASE("outliers: single joints jump 10-50 mm for 1-3 rows, the other noise draws the same as without them") {
   const HandSeries clean = synth_series(20.0, 60.0, 3);
   CorruptionConfig base;
   base.kind = CorruptionKind::Tracker;

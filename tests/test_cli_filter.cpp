@@ -48,7 +48,7 @@ hs::Track run_filter(const fs::path& in, const fs::path& out, const std::string&
 
 }  // namespace
 
-TEST_CASE("filter keeps rows, timestamps and untracked rows; raw at horizon 0 reproduces the input") {
+TEST_CASE("filter keeps rows, timestamps and untracked rows, raw at horizon 0 reproduces the input") {
   const fs::path dir = hs::test::temp_dir("cli_filter_raw");
   hs::write_track_csv(test_track(40), dir / "in.csv");
   const hs::Track input = hs::read_track_csv(dir / "in.csv");  // what the CLI sees (CSV precision)

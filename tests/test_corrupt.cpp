@@ -330,7 +330,7 @@ TEST_CASE("paper occlusion and shift fractions match E[min(|alpha|, 2 sigma)]") 
   CHECK(half_max > 0.024);
 }
 
-TEST_CASE("CLI: corrupt is reproducible and records the preset; eval reads the result") {
+TEST_CASE("CLI: corrupt is reproducible and records the preset, eval reads the result") {
   const auto dir = hs::test::temp_dir("corrupt_cli");
   hs::Track clean;
   hs::add_hand_series(clean, hs::Hand::Right, static_series(120, 30.0));

@@ -130,7 +130,7 @@ Motion noisy_motion(int n, unsigned seed) {
 
 }  // namespace
 
-TEST_CASE("method names round-trip; unknown names and bad parameters are rejected") {
+TEST_CASE("method names round-trip, unknown names and bad parameters are rejected") {
   for (FilterMethod m : kMethods) CHECK(hs::parse_filter_method(hs::filter_method_name(m)) == m);
   CHECK_THROWS_AS(hs::parse_filter_method("one-euro"), std::invalid_argument);
   CHECK_THROWS_AS(hs::parse_filter_method(""), std::invalid_argument);
@@ -296,7 +296,7 @@ TEST_CASE("DESP: the steady-state prediction on a ramp is exact at any horizon")
   }
 }
 
-TEST_CASE("DESP on a constant signal predicts the constant; first sample is its own prediction") {
+TEST_CASE("DESP on a constant signal predicts the constant, first sample is its own prediction") {
   auto f = hs::make_filter(config(FilterMethod::Desp));
   const Pose p = pose_at(Vec3(0.1, 0.2, 0.3));
   REQUIRE(f->push(5.0, p));

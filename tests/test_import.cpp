@@ -546,7 +546,7 @@ TEST_CASE("real data: a ManipNet BVH gives plausible finger bones and hand size"
 
 // ---------------------------------------------------------------- CLI
 
-TEST_CASE("cli: import writes a readable track; bad input fails with a location") {
+TEST_CASE("cli: import writes a readable track, bad input fails with a location") {
   const auto dir = test::temp_dir("import");
   const auto out = dir / "fpha.csv";
   CHECK(test::run_cli("import --format fpha --in \"" + fpha_fixture_dir().string() + "\" --out \"" + out.string() +

@@ -37,7 +37,7 @@ constexpr XrTime kPeriod = 11'111'111;
 
 }  // namespace
 
-TEST_CASE("gate: origin, denormal, NaN, 1e30 and stray joints are marked missing; too few joints is no hand") {
+TEST_CASE("gate: origin, denormal, NaN, 1e30 and stray joints are marked missing, too few joints is no hand") {
   Pose p = hand_at(0.1);
   p.row(3).setZero();
   p.row(4) << 1e-40, 0.0, -1e-40;
@@ -68,7 +68,7 @@ TEST_CASE("gate: a hand moving faster than any hand, or back from a loss elsewhe
   CHECK_FALSE(hand_jumped(Eigen::Vector3d::Constant(kNaN), a, 0.011));  // nothing to compare
 }
 
-TEST_CASE("semantics probe: identical answers 25 ms apart while moving mean latest pose; a still hand proves nothing") {
+TEST_CASE("semantics probe: identical answers 25 ms apart while moving mean latest pose, a still hand proves nothing") {
   SemanticsProbe probe;
   const Pose a = hand_at(0.0), b = hand_at(0.01);
   CHECK(probe.semantics() == TimeSemantics::History);
@@ -127,7 +127,7 @@ TEST_CASE("tracker filter: first answer is the runtime's (weight 0), blends in, 
   CHECK((out.pose - q).norm() < 1e-9);
 }
 
-TEST_CASE("tracker filter: answers ahead only as far as the path reaches; older times from the history") {
+TEST_CASE("tracker filter: answers ahead only as far as the path reaches, older times from the history") {
   auto f = one_euro_filter(Execution::Inline);
   Answer out;
   XrTime t = 1'000'000'000;
@@ -183,7 +183,7 @@ TEST_CASE("tracker filter: the worker's answers equal lockstep's and hide the ha
   CHECK(err_lock < 0.7 * err_stale);
 }
 
-TEST_CASE("joint rewrite: weight, smoothing and garbage; an estimate elsewhere replaces nothing") {
+TEST_CASE("joint rewrite: weight, smoothing and garbage, an estimate elsewhere replaces nothing") {
   std::array<XrHandJointLocationEXT, kJointCount> joints{};
   const Pose raw = hand_at(0.0);
   for (int j = 0; j < kJointCount; ++j) {

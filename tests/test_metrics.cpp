@@ -46,7 +46,7 @@ hs::Track track_of(const std::vector<double>& t, const std::vector<Pose>& pos, h
 
 }  // namespace
 
-TEST_CASE("constant offset: E_pos, MPJPE exact; bones and symmetry unchanged") {
+TEST_CASE("constant offset: E_pos, MPJPE exact, bones and symmetry unchanged") {
   const auto truth = repeated(synthetic_hand(), 10);
   // Offset (1, 2, 2) mm: distance 3 mm, per-coordinate squared error (1 + 4 + 4) / 3 = 3 mm^2.
   const auto est = repeated(translated(synthetic_hand(), 0.001, 0.002, 0.002), 10);
@@ -62,7 +62,7 @@ TEST_CASE("constant offset: E_pos, MPJPE exact; bones and symmetry unchanged") {
   CHECK(hs::jitter_mm(est) == doctest::Approx(0.0).scale(1.0).epsilon(1e-9));
 }
 
-TEST_CASE("untracked joints are skipped; nothing to compare gives NaN; lengths must match") {
+TEST_CASE("untracked joints are skipped, nothing to compare gives NaN, lengths must match") {
   auto truth = repeated(synthetic_hand(), 4);
   auto est = repeated(translated(synthetic_hand(), 0.003, 0, 0), 4);
   // Untracked joints with a huge error elsewhere must not count.

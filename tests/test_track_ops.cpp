@@ -119,7 +119,7 @@ TEST_CASE("mirror: x negated, hands swapped, twice is the identity") {
   }
 }
 
-TEST_CASE("hand_size: median wrist -> middle_proximal; normalize scales about the wrist") {
+TEST_CASE("hand_size: median wrist -> middle_proximal, normalize scales about the wrist") {
   HandSeries s;
   // Hands of size 0.07, 0.08, 0.10 m (wrist at varying places) and one without a wrist.
   const double sizes[] = {0.07, 0.10, 0.08};

@@ -282,7 +282,7 @@ TEST_CASE("denoise: the same time in several base spaces gives the same world po
   app.shutdown();
 }
 
-TEST_CASE("denoise: orientations follow the new bone directions; velocities stay consistent") {
+TEST_CASE("denoise: orientations follow the new bone directions, velocities stay consistent") {
   const TrackFiles f = make_tracks("orient", 3.0);
   reset_env(f);
   enable_layers({kLayer});

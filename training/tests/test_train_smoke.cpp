@@ -214,7 +214,7 @@ TEST_CASE("random corruption: seeded, varied, per-joint strength, dropped joints
   CHECK(dropped > 100);
 }
 
-TEST_CASE("sources are drawn by weight; still and reshaped windows") {
+TEST_CASE("sources are drawn by weight, still and reshaped windows") {
   SynthMotionParams p;
   p.duration_s = 3;
   ClipSet clips;
