@@ -30,6 +30,7 @@ struct BenchmarkOptions {
   std::string out;
   std::vector<std::string> models;  // LABEL=FILE.hsm
   bool no_default_model = false;
+  bool unbounded = false;  // also each model without its trust region
   bench::Options run;
 };
 
@@ -80,6 +81,8 @@ void run_benchmark(const BenchmarkOptions& o, const std::string& command) {
     if (model->config.padding != StgaePadding::Causal)
       throw InputError({file.string(), 0, "--model"}, "a centred model cannot stream; the benchmark runs causally");
     methods.push_back({label, [model](const std::string&) { return make_stgae_filter(model, 0.0, 0); }, true});
+    if (o.unbounded)
+      methods.push_back({label + "-unbounded", [model](const std::string&) { return make_stgae_filter(model, 0.0, 0, false); }, true});
     report.notes.push_back(fmt::format("model {} = {}", label, file.string()));
   }
   bench::run_grid(sets, methods, o.run, report);
@@ -98,6 +101,8 @@ void setup_benchmark(CLI::App& app) {
   sub->add_option("--out", o->out, "Folder for benchmark.md, benchmark.json, curve.csv")->required();
   sub->add_option("--model", o->models, "LABEL=FILE.hsm, a causal model to score (repeatable)");
   sub->add_flag("--no-default-model", o->no_default_model, "Do not add the shipped model (label multistgae)");
+  sub->add_flag("--unbounded", o->unbounded,
+                "Also score each model without its trust region (label LABEL-unbounded; docs/STGAE.md)");
   sub->add_flag("--quick", o->run.quick, "The CI subset: ~20 s of each set, one strength per family");
   sub->add_option("--threads", o->run.threads, "Worker threads")->capture_default_str()->check(CLI::Range(1, 64));
   sub->add_option("--seed", o->run.seed, "Seed of every corruption and timing jitter")->capture_default_str();

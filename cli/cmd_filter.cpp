@@ -47,6 +47,7 @@ struct FilterOptions {
   std::string model_file;  // empty: hs::default_model_path()
   bool offline = false;
   int phases = 0;  // interleaved streams; 0 = input rate / model rate
+  bool unbounded = false;  // the network's own answer, without the trust region
   std::shared_ptr<const StgaeModel> model;  // loaded once by run_filter (prepare_stgae)
   std::string model_source;                 // the file it came from
 };
@@ -110,14 +111,14 @@ void prepare_stgae(FilterOptions& o) {
   }
 }
 
-std::unique_ptr<PoseFilter> make_stgae(const FilterOptions& o) { return make_stgae_filter(o.model, o.horizon_ms * 1e-3, o.phases); }
+std::unique_ptr<PoseFilter> make_stgae(const FilterOptions& o) { return make_stgae_filter(o.model, o.horizon_ms * 1e-3, o.phases, !o.unbounded); }
 
 std::string describe_stgae(const FilterOptions& o) {
   const StgaeConfig& c = o.model->config;
-  return fmt::format("model={} rate_hz={} window={} horizon_frames={} padding={} mode={} phases={}", o.model_source,
+  return fmt::format("model={} rate_hz={} window={} horizon_frames={} padding={} mode={} phases={}{}", o.model_source,
                      c.rate_hz, c.window, c.predict ? c.horizon : 0,
                      c.padding == StgaePadding::Causal ? "causal" : "centred", o.offline ? "offline" : "streaming",
-                     o.phases == 0 ? std::string("auto") : std::to_string(o.phases));
+                     o.phases == 0 ? std::string("auto") : std::to_string(o.phases), o.unbounded ? " unbounded" : "");
 }
 
 const std::array<MethodEntry, 5> kMethods = {
@@ -319,6 +320,9 @@ void run_filter(const FilterOptions& options) {
   if (o.phases != 0 && method.name != "stgae") {
     throw InputError({"", 0, "--phases"}, fmt::format("--phases is for --method stgae, not {}", method.name));
   }
+  if (o.unbounded && (method.name != "stgae" || o.offline)) {
+    throw InputError({"", 0, "--unbounded"}, "--unbounded is for --method stgae streaming");
+  }
   if (!o.model_file.empty() && method.name != "stgae") {
     throw InputError({"", 0, "--model"}, fmt::format("--model is for --method stgae, not {}", method.name));
   }
@@ -377,6 +381,9 @@ void setup_filter(CLI::App& app) {
   sub->add_option("--phases", o->phases,
                   "Multi-STGAE: interleaved streams for input faster than the model (0 = input rate / model rate)")
       ->capture_default_str();
+  sub->add_flag("--unbounded", o->unbounded,
+                "Multi-STGAE: the network's own answer, without the trust region that holds it near its input "
+                "(docs/STGAE.md \"Trust region\"; for comparison)");
   sub->add_flag("--offline", o->offline,
                 "Multi-STGAE: run a centred model in window mode over the whole recording (not causal); with "
                 "--horizon-ms, the window ending at each row predicts (the paper's protocol)");

@@ -185,7 +185,7 @@ struct Ticks {
 
 }  // namespace
 
-TEST_CASE("stgae streams at 20, 30, 90 and 120 Hz and on irregular timestamps; rows are kept") {
+TEST_CASE("stgae streams at 20, 30, 90 and 120 Hz and on irregular timestamps, rows are kept") {
   const fs::path dir = hs::test::temp_dir("cli_stgae_rates");
   for (const double rate : {20.0, 30.0, 90.0, 120.0, 0.0}) {
     CAPTURE(rate);
@@ -213,7 +213,8 @@ TEST_CASE("stgae with one stream and a zero-offset model reproduces the ramp at 
     // Left: lost for 0.5 s from t = 1 s (longer than kModelResetGapS: the grid restarts).
     hs::write_track_csv(ramp_track(times, 1.0, 1.5), dir / "in.csv");
     const hs::Track in = hs::read_track_csv(dir / "in.csv");
-    const hs::Track out = run_ok(in, dir, "--method stgae --phases 1 --model " + quoted(models().zero_causal));
+    // Unbounded: the trust region would pull the held ticks onto the moving input.
+    const hs::Track out = run_ok(in, dir, "--method stgae --unbounded --phases 1 --model " + quoted(models().zero_causal));
     REQUIRE(out.rows.size() == in.rows.size());
     Ticks left_ticks, right_ticks;
     bool left_lost = false;
@@ -248,9 +249,9 @@ TEST_CASE("stgae at 90 Hz (3 streams by default) with a zero-offset model: each 
   const fs::path dir = hs::test::temp_dir("cli_stgae_phases");
   hs::write_track_csv(ramp_track(regular_times(90.0, 2.0)), dir / "in.csv");
   const hs::Track in = hs::read_track_csv(dir / "in.csv");
-  const hs::Track out = run_ok(in, dir, "--method stgae --model " + quoted(models().zero_causal));
+  const hs::Track out = run_ok(in, dir, "--method stgae --unbounded --model " + quoted(models().zero_causal));
   REQUIRE(out.rows.size() == in.rows.size());
-  CHECK(out.meta("filter").value_or("").find("phases=auto") != std::string::npos);
+  CHECK(out.meta("filter").value_or("").find("phases=auto unbounded") != std::string::npos);
   double max_err = 0.0;
   long n = 0;
   for (size_t i = 0; i < in.rows.size(); ++i) {
@@ -317,6 +318,9 @@ TEST_CASE("stgae model errors: bad, missing or centred model files exit with sta
                    "--method stgae --offline --model " + quoted(models().random_causal), dir / "err.txt") == 2);
   CHECK(filter_cli(dir / "in.csv", dir / "out.csv", "--method oneeuro --model " + quoted(models().random_causal)) == 2);
   CHECK(filter_cli(dir / "in.csv", dir / "out.csv", "--method kalman --offline") == 2);
+  // --unbounded: Multi-STGAE streaming only.
+  CHECK(filter_cli(dir / "in.csv", dir / "out.csv", "--method kalman --unbounded", dir / "err.txt") == 2);
+  CHECK(slurp(dir / "err.txt").find("--unbounded") != std::string::npos);
   // --phases: Multi-STGAE only, 0..4.
   CHECK(filter_cli(dir / "in.csv", dir / "out.csv", "--method kalman --phases 2", dir / "err.txt") == 2);
   CHECK(slurp(dir / "err.txt").find("--phases") != std::string::npos);

@@ -307,7 +307,7 @@ TEST_CASE("a tiny hand-computed model: gcn layout, graph orientation, causal tem
   }
 }
 
-TEST_CASE("hole filling: a joint never seen takes the wrist; a lost joint holds its last value") {
+TEST_CASE("hole filling: a joint never seen takes the wrist, a lost joint holds its last value") {
   StgaeConfig c = small_causal();
   c.predict = false;
   auto w = zero_weights(c);  // all-zero offsets: the output is the filled input
@@ -364,7 +364,7 @@ TEST_CASE("no heap allocation per frame after warm-up") {
   CHECK(g_allocations.load() >= 1);
 }
 
-TEST_CASE("window mode checks its input; streaming needs a causal model") {
+TEST_CASE("window mode checks its input, streaming needs a causal model") {
   auto c = small_causal();
   c.padding = hs::StgaePadding::Centred;
   const auto net = hs::make_stgae_net<double>(c, hs::random_stgae_weights(c, 1));
@@ -389,6 +389,8 @@ hs::Pose pose_at(const std::vector<float>& v, int t) {
 }
 }  // namespace
 
+// The adapter tests below run unbounded (no trust region, correction_bound.hpp): they check
+// the resampling against the raw streams; test_correction_bound.cpp checks the bound.
 TEST_CASE("PoseFilter adapter: resampling onto the model grid, horizons, gaps") {
   const auto c = small_causal();
   const auto model = small_model(c, 3);
@@ -396,7 +398,7 @@ TEST_CASE("PoseFilter adapter: resampling onto the model grid, horizons, gaps") 
   const auto src = hs::synthetic_hand_input(c, 12, 8);
 
   // Input exactly on the model grid: the filter pushes each frame once, so it reproduces the stream.
-  auto f = hs::make_stgae_filter(model, 0.0);
+  auto f = hs::make_stgae_filter(model, 0.0, 0, false);
   hs::StgaeStream<float> ref(model->net);
   hs::Pose out;
   for (int t = 0; t < 12; ++t) {
@@ -416,7 +418,7 @@ TEST_CASE("PoseFilter adapter: resampling onto the model grid, horizons, gaps") 
   CHECK(f->last_time() == doctest::Approx(1.0 + 11 * dt));
 
   // At twice the model rate with one stream, every other input sample lands on the grid.
-  auto g = hs::make_stgae_filter(model, 0.0, 1);
+  auto g = hs::make_stgae_filter(model, 0.0, 1, false);
   for (int t = 0; t < 6; ++t) {
     g->push(1.0 + t * dt, pose_at(src, t));
     if (t + 1 < 6) {
@@ -424,7 +426,7 @@ TEST_CASE("PoseFilter adapter: resampling onto the model grid, horizons, gaps") 
       g->push(1.0 + (t + 0.5) * dt, half);
     }
   }
-  f = hs::make_stgae_filter(model, 0.0);
+  f = hs::make_stgae_filter(model, 0.0, 0, false);
   for (int t = 0; t < 6; ++t) f->push(1.0 + t * dt, pose_at(src, t));
   hs::Pose a, b;
   f->estimate(1.0 + 5 * dt, a);
@@ -468,7 +470,7 @@ TEST_CASE("PoseFilter adapter: on-grid input with rounded timestamps gives each 
   const double dt = 1.0 / c.rate_hz;
   constexpr int kFrames = 90;
   const auto src = hs::synthetic_hand_input(c, kFrames, 21);
-  auto f = hs::make_stgae_filter(model, 0.0);
+  auto f = hs::make_stgae_filter(model, 0.0, 0, false);
   hs::StgaeStream<float> ref(model->net);
   hs::Pose out;
   int exact = 0;
@@ -497,7 +499,7 @@ TEST_CASE("PoseFilter adapter: input 3x the model rate runs 3 interleaved stream
   const double dt = 1.0 / c.rate_hz / 3.0;
   constexpr int kRows = 60;
   const auto src = hs::synthetic_hand_input(c, kRows, 31);
-  auto f = hs::make_stgae_filter(model, 0.0, 3);
+  auto f = hs::make_stgae_filter(model, 0.0, 3, false);
   std::array<std::unique_ptr<hs::StgaeStream<float>>, 3> ref;
   for (auto& r : ref) r = std::make_unique<hs::StgaeStream<float>>(model->net);
   const auto along = [](const hs::StgaeStream<float>& r, size_t i, double s) {  // path at s periods
@@ -533,7 +535,7 @@ TEST_CASE("PoseFilter adapter: input 3x the model rate runs 3 interleaved stream
   // input switches to three after the first rows and ends up answering like a filter
   // started with three.
   const auto run = [&](int phases, double step, int rows) {
-    auto g = hs::make_stgae_filter(model, 0.0, phases);
+    auto g = hs::make_stgae_filter(model, 0.0, phases, false);
     for (int n = 0; n < rows; ++n) g->push(2.0 + n * step, pose_at(src, n));
     hs::Pose o;
     g->estimate(2.0 + (rows - 1) * step, o);
@@ -557,7 +559,7 @@ TEST_CASE("PoseFilter adapter: irregular times near the model rate lock the fram
   constexpr int kRows = 30;
   const auto src = hs::synthetic_hand_input(c, kRows, 41);
   const auto frame = [&](int n) { return std::span<const float>(src.data() + static_cast<size_t>(n * 78), 78); };
-  auto f = hs::make_stgae_filter(model, 0.0);
+  auto f = hs::make_stgae_filter(model, 0.0, 0, false);
   hs::StgaeStream<float> ref(model->net);
   double t = 1.0;
   hs::Pose out;

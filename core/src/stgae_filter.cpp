@@ -5,6 +5,7 @@
 // stream m % K, so every stream still sees frames one model period apart, as in training,
 // and each input row is answered by a freshly denoised frame instead of a prediction up
 // to one model period ahead (whose error shows as a jump at every model tick).
+#include "handsteady/correction_bound.hpp"
 #include "handsteady/stgae_engine.hpp"
 #include "handsteady/stgae_filter.hpp"
 
@@ -31,7 +32,8 @@ struct PhaseOutput {
 
 class StgaeFilter final : public PoseFilter {
  public:
-  StgaeFilter(std::shared_ptr<const StgaeModel> model, int phases) : model_(std::move(model)), fixed_phases_(phases) {
+  StgaeFilter(std::shared_ptr<const StgaeModel> model, int phases, bool bounded)
+      : model_(std::move(model)), fixed_phases_(phases), bounded_(bounded) {
     const auto& c = model_->config;
     n_ = c.joint_count();
     if (n_ != kJointCount) throw std::invalid_argument("the STGAE filter needs a 26-joint (xr26) model");
@@ -47,6 +49,7 @@ class StgaeFilter final : public PoseFilter {
       auto& o = out_[static_cast<size_t>(k)];
       o.path.assign(fs * static_cast<size_t>(dt_frames_ + 1), kNaN);
       o.den_prev.assign(fs, kNaN);
+      bounds_[static_cast<size_t>(k)] = CorrectionBound(dt_frames_ + 1);
     }
     reset();
   }
@@ -193,6 +196,7 @@ class StgaeFilter final : public PoseFilter {
 
   void restart_grid() noexcept {
     for (auto& stream : streams_) stream->reset();
+    for (auto& b : bounds_) b.reset();
     for (PhaseOutput& o : out_) o.have = o.have_prev = o.warm = false;
     have_grid_ = false;
     locked_ = false;
@@ -230,6 +234,7 @@ class StgaeFilter final : public PoseFilter {
       const auto p = stream.predicted(i);
       std::copy(p.begin(), p.end(), o.path.begin() + static_cast<std::ptrdiff_t>((static_cast<size_t>(i) + 1) * p.size()));
     }
+    if (bounded_) bounds_[static_cast<size_t>(phase)].apply(frame, o.path);
     o.t = t;
     o.have = true;
     // Answer from the newest frame of a warmed-up stream; a phase started later (after the
@@ -243,6 +248,8 @@ class StgaeFilter final : public PoseFilter {
   int fixed_phases_ = 0;  // 0 = from the input rate
   std::array<std::unique_ptr<StgaeStream<float>>, kStgaeMaxPhases> streams_;
   std::array<PhaseOutput, kStgaeMaxPhases> out_;
+  std::array<CorrectionBound, kStgaeMaxPhases> bounds_;  // one per stream: its frames are a period apart
+  bool bounded_ = true;
   int n_ = 0, dt_frames_ = 0, warm_frames_ = 1, phases_ = 1, latest_ = -1, valid_rows_ = 0;
   double period_ = 1.0 / 30.0, sub_period_ = 1.0 / 30.0;
   std::vector<float> prev_, cur_, interp_;
@@ -256,7 +263,8 @@ class StgaeFilter final : public PoseFilter {
 
 }  // namespace
 
-std::unique_ptr<PoseFilter> make_stgae_filter(std::shared_ptr<const StgaeModel> model, double horizon_s, int phases) {
+std::unique_ptr<PoseFilter> make_stgae_filter(std::shared_ptr<const StgaeModel> model, double horizon_s, int phases,
+                                              bool bounded) {
   if (!model || !model->net) throw std::invalid_argument("make_stgae_filter: no model");
   if (model->config.padding != StgaePadding::Causal)
     throw std::invalid_argument("make_stgae_filter: streaming needs a causal model (this one is centred)");
@@ -265,7 +273,7 @@ std::unique_ptr<PoseFilter> make_stgae_filter(std::shared_ptr<const StgaeModel> 
   if (phases < 0 || phases > kStgaeMaxPhases)
     throw std::invalid_argument("make_stgae_filter: phases must be 0 (from the input rate) to " +
                                 std::to_string(kStgaeMaxPhases));
-  return std::make_unique<StgaeFilter>(std::move(model), phases);
+  return std::make_unique<StgaeFilter>(std::move(model), phases, bounded);
 }
 
 }  // namespace hs

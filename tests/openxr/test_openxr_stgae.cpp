@@ -14,6 +14,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <random>
 
 using namespace hs;
 using namespace hs::xrtest;
@@ -116,7 +117,6 @@ TEST_CASE("stgae by HANDSTEADY_METHOD, denoise and predict: finite answers, runt
     std::filesystem::remove_all(rec);
     reset_env(f);
     set_env("HANDSTEADY_WORKER", "lockstep");  // simulated clock: deterministic hand-off
-  set_env("HANDSTEADY_WORKER", "lockstep");  // simulated clock: deterministic hand-off
     set_env("HANDSTEADY_SHIM_HEAD_MOTION", "1");
     set_env("HANDSTEADY_METHOD", "stgae");
     set_env("HANDSTEADY_MODEL", model.string());
@@ -146,7 +146,6 @@ TEST_CASE("stgae chosen by the configuration file, and by default when HANDSTEAD
     std::filesystem::remove_all(rec);
     reset_env(f);
     set_env("HANDSTEADY_WORKER", "lockstep");  // simulated clock: deterministic hand-off
-  set_env("HANDSTEADY_WORKER", "lockstep");  // simulated clock: deterministic hand-off
     unset_env("HANDSTEADY_METHOD");  // these cases test the layer's own choice of engine
     if (by_file) set_env("HANDSTEADY_CONFIG", cfg.string());
     else set_env("HANDSTEADY_MODEL", model.string());  // no method: a model is found -> stgae
@@ -168,7 +167,6 @@ TEST_CASE("a corrupt model falls back to the mode's classical filter, which stil
     std::filesystem::remove_all(rec);
     reset_env(f);
     set_env("HANDSTEADY_WORKER", "lockstep");  // simulated clock: deterministic hand-off
-  set_env("HANDSTEADY_WORKER", "lockstep");  // simulated clock: deterministic hand-off
     unset_env("HANDSTEADY_METHOD");  // these cases test the layer's own choice of engine
     if (explicit_method) set_env("HANDSTEADY_METHOD", "stgae");
     set_env("HANDSTEADY_MODEL", bad.string());
@@ -197,5 +195,83 @@ TEST_CASE("a corrupt model falls back to the mode's classical filter, which stil
       CHECK(sum / static_cast<double>(n) < 0.9 * raw_sum / static_cast<double>(raw_n));
     }
     CHECK(recorded_engine(rec) == "oneeuro");
+  }
+}
+
+TEST_CASE("the shipped model on a still hand of other proportions: no jump at start, no drift, no rotation") {
+  // The Multi-STGAE v2 issue's start/still criteria, through the loader and the layer: the
+  // runtime reports a still hand (25 % larger than the synthetic one, in front of the
+  // head); the app must get it within 1 mm from the first answer on, and joint
+  // orientations within 2 degrees of the runtime's.
+  // A tracker's 0.05 mm of jitter keeps each sample new (the layer takes a sample
+  // identical to the last for the runtime repeating itself).
+  Track still;
+  const Pose right = (hs::test::synthetic_hand() * 1.25).rowwise() + Eigen::RowVector3d(0.12, -0.15, -0.4);
+  const Pose left = mirror_pose(right);
+  std::mt19937_64 rng(4);
+  std::normal_distribution<double> jitter(0.0, 5e-5);
+  for (int i = 0; i < 360; ++i)
+    for (const Hand h : {Hand::Left, Hand::Right}) {
+      Pose p = h == Hand::Left ? left : right;
+      for (int j = 0; j < kJointCount; ++j)
+        for (int c = 0; c < 3; ++c) p(j, c) += jitter(rng);
+      still.rows.push_back({i / 90.0, h, p});
+    }
+  const TrackFiles f = make_tracks_from("stgae_still", still, 0.0);
+  const auto model = std::filesystem::path(HS_FIXTURES) / ".." / ".." / "models" / "handsteady_xr26_causal.hsm";
+  const auto replay_clean = [&] {
+    reset_env(f);
+    set_env("HANDSTEADY_SHIM_TRACK", f.clean_csv.string());  // the tracker preset would add jumps
+    set_env("HANDSTEADY_WORKER", "lockstep");
+  };
+  replay_clean();
+  const auto runtime = run_frames(300);
+  for (const std::string mode : {"denoise", "predict"}) {
+    CAPTURE(mode);
+    replay_clean();
+    set_env("HANDSTEADY_METHOD", "stgae");
+    set_env("HANDSTEADY_MODEL", model.string());
+    set_env("HANDSTEADY_MODE", mode);
+    const auto rec = f.dir / ("rec_" + mode);
+    std::filesystem::remove_all(rec);
+    set_env("HANDSTEADY_RECORD", rec.string());
+    enable_layers({kLayer});
+    const auto layer = run_frames(300);
+    CHECK(recorded_engine(rec) == "stgae");
+    REQUIRE(layer.size() == runtime.size());
+    // Against the runtime's answers: the largest joint offset in the first 0.3 s (start)
+    // and after 1 s, the mean answer's offset after 1 s (drift), the largest rotation.
+    double start_mm = 0.0, later_mm = 0.0, worst_deg = 0.0;
+    std::array<Pose, 2> offset_sum{Pose::Zero(), Pose::Zero()};
+    long compared = 0, later = 0;
+    for (size_t i = 0; i < layer.size(); ++i)
+      for (int h = 0; h < 2; ++h) {
+        const Joints &a = layer[i].hand[h], &b = runtime[i].hand[h];
+        REQUIRE(a.active == b.active);
+        if (!a.active) continue;
+        for (int k = 0; k < XR_HAND_JOINT_COUNT_EXT; ++k) {
+          const Eigen::Vector3d d = xr::to_eigen(a.loc[k].pose.position) - xr::to_eigen(b.loc[k].pose.position);
+          if (i < 27) start_mm = std::max(start_mm, d.norm() * 1e3);
+          if (i >= 90) {
+            later_mm = std::max(later_mm, d.norm() * 1e3);
+            offset_sum[static_cast<size_t>(h)].row(k) += d.transpose();
+          }
+          worst_deg = std::max(worst_deg, xr::to_eigen(a.loc[k].pose.orientation).angularDistance(xr::to_eigen(b.loc[k].pose.orientation)) * 180.0 / M_PI);
+          ++compared;
+        }
+        if (i >= 90 && h == 0) ++later;
+      }
+    REQUIRE(later > 0);
+    const double drift_mm = std::max(offset_sum[0].rowwise().norm().maxCoeff(), offset_sum[1].rowwise().norm().maxCoeff()) /
+                            static_cast<double>(later) * 1e3;
+    MESSAGE("still hand through the layer: start " << start_mm << " mm, later " << later_mm << " mm, mean offset "
+                                                   << drift_mm << " mm, rotation " << worst_deg << " deg");
+    CHECK(compared > 200 * 2 * 26);
+    // Denoising (the criteria): start within 1 mm; the mean answer within the trust
+    // region's radius of a 0.05 mm jitter (~0.3 mm; noise-free, the benchmark measures 0).
+    // Predicting 20 ms past the runtime (the default) adds the bounded prediction's spread.
+    CHECK(start_mm < (mode == "denoise" ? 1.0 : 1.5));
+    CHECK(drift_mm < (mode == "denoise" ? 0.35 : 0.6));
+    CHECK(worst_deg < 2.0);
   }
 }

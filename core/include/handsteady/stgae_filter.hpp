@@ -20,10 +20,12 @@ namespace hs {
 // is a frame at its own time, missed samples are bridged (docs/STGAE.md). estimate(t):
 // horizon 0 -> the denoised latest model frame, moved by the linear trend to t; horizon >
 // 0 -> the predicted frames interpolated at t + horizon_s. The hand lost (no valid joint)
-// for more than kModelResetGapS resets the streams. Throws std::invalid_argument for a
+// for more than kModelResetGapS resets the streams. `bounded`: each stream's output is held
+// within the trust region of its input (correction_bound.hpp); false = the network's raw
+// answer (for comparison). Throws std::invalid_argument for a
 // centred model, a negative horizon or phases outside 0..kStgaeMaxPhases.
 inline constexpr int kStgaeMaxPhases = 4;
 std::unique_ptr<PoseFilter> make_stgae_filter(std::shared_ptr<const StgaeModel> model, double horizon_s,
-                                              int phases = 0);
+                                              int phases = 0, bool bounded = true);
 
 }  // namespace hs

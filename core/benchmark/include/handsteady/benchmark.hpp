@@ -102,6 +102,7 @@ struct SweepPoint {
 struct StillResult {
   std::string dataset, shape, method;
   double start_mm = 0, resume_mm = 0, drift_mm = 0;
+  double noisy_offset_mm = 0;  // with 0.5 mm jitter: the mean answer (1 s to 2 s) from the pose
 };
 
 struct SetInfo {

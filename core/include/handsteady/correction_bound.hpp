@@ -1,0 +1,61 @@
+#pragma once
+// A trust region for a denoiser's output: the network may move a joint away from its input
+// only as far as the input's own recent roughness says noise could have moved it, and its
+// persistent offsets (a learnt bias on an unfamiliar hand: noise averages out of a
+// correction, a bias does not) are taken out, of the denoised frame and of each predicted
+// displacement. A clean still hand is answered exactly, from the first frame on; a noisy
+// hand leaves the network free. Per stream (frames one model period apart), no allocation
+// after construction, noexcept. docs/STGAE.md "Trust region".
+#include "handsteady/skeleton.hpp"
+
+#include <Eigen/Core>
+
+#include <array>
+#include <span>
+#include <vector>
+
+namespace hs {
+
+// Radius = max(kCorrectionNoiseFactor * noise, |second difference now|): `noise` is the
+// RMS noise a white jitter with the joint's mean squared second difference would have
+// (E|a|^2 = 6 E|n|^2), averaged over about kCorrectionRoughnessFrames earlier frames; the
+// second term lets a one-frame outlier be taken back whole. The offsets are means over
+// about kCorrectionBiasFrames frames, each step clipped to the noise radius.
+inline constexpr double kCorrectionNoiseFactor = 3.0;
+inline constexpr double kCorrectionRoughnessFrames = 15.0;
+inline constexpr double kCorrectionBiasFrames = 30.0;
+
+class CorrectionBound {
+ public:
+  // frames: the length of the network's path, [denoised, predicted 1 .. frames - 1 periods ahead].
+  explicit CorrectionBound(int frames = 1);
+  // Forgets the history (tracking restarted).
+  void reset() noexcept;
+  // Input frame x (3 * kJointCount, joint-major xyz, NaN = missing) and the network's path
+  // for it (frames() frames of 3 * kJointCount), rewritten in place:
+  // - denoised: less the network's mean offset, then pulled to within the radius of x;
+  // - predicted frame f: the denoised one plus the network's predicted displacement less
+  //   its mean excess over the displacement the input then made (measured f frames later),
+  //   then held within reach of constant velocity (x's last step) from the denoised one.
+  // Joints missing in x are not bound.
+  void apply(std::span<const float> x, std::span<float> path) noexcept;
+  int frames() const noexcept { return frames_; }
+  // The radius of joint j after the last apply (m); infinity when it was not bound.
+  double radius(int j) const noexcept { return radius_[static_cast<size_t>(j)]; }
+
+ private:
+  static constexpr size_t kFs = 3 * kJointCount;
+  int frames_ = 1, hist_ = 3;  // path length; frames of input history kept (>= 3, >= frames)
+  long n_ = 0;                 // frames since reset
+  std::vector<float> x_;       // input ring, hist_ frames
+  std::vector<float> disp_;    // the network's predicted displacements per ring frame, (frames_ - 1) frames
+  std::array<double, kJointCount> rough_{};  // mean squared second difference, m^2
+  std::array<int, kJointCount> count_{};     // second differences averaged so far
+  std::array<double, kJointCount> radius_{};
+  std::vector<Eigen::Vector3d> bias_;  // per path frame and joint: mean offset (f = 0) or excess displacement
+  std::vector<int> bias_count_;
+
+  const float* x_back(long back) const noexcept;  // the input `back` frames ago (0 = now)
+};
+
+}  // namespace hs

@@ -1,0 +1,125 @@
+#include "handsteady/correction_bound.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace hs {
+
+namespace {
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+bool finite3(const float* p) noexcept { return std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]); }
+Eigen::Vector3d load(const float* p) noexcept { return Eigen::Vector3f(p[0], p[1], p[2]).cast<double>(); }
+void store(const Eigen::Vector3d& v, float* p) noexcept {
+  for (int c = 0; c < 3; ++c) p[c] = static_cast<float>(v[c]);
+}
+// p moved the shortest way into the ball of radius r around centre.
+Eigen::Vector3d clamp_into(const Eigen::Vector3d& p, const Eigen::Vector3d& centre, double r) noexcept {
+  const Eigen::Vector3d d = p - centre;
+  const double n = d.norm();
+  return n > r ? Eigen::Vector3d(centre + d * (r / n)) : p;
+}
+// A running mean (a plain mean while warming up): one step towards `sample`, clipped to `step`.
+void mean_step(Eigen::Vector3d& mean, int& count, const Eigen::Vector3d& sample, double step) noexcept {
+  const double w = std::max(1.0 / (count + 1), 1.0 / kCorrectionBiasFrames);
+  mean += w * (clamp_into(sample, mean, step) - mean);
+  count = std::min(count + 1, 1 << 20);
+}
+}  // namespace
+
+CorrectionBound::CorrectionBound(int frames)
+    : frames_(std::max(frames, 1)),
+      hist_(std::max(frames_, 3)),
+      x_(static_cast<size_t>(hist_) * kFs),
+      disp_(static_cast<size_t>(hist_ * (frames_ - 1)) * kFs),
+      bias_(static_cast<size_t>(frames_ * kJointCount)),
+      bias_count_(static_cast<size_t>(frames_ * kJointCount)) {
+  reset();
+}
+
+void CorrectionBound::reset() noexcept {
+  n_ = 0;
+  std::fill(x_.begin(), x_.end(), kNaN);
+  std::fill(disp_.begin(), disp_.end(), kNaN);
+  rough_.fill(0.0);
+  count_.fill(0);
+  radius_.fill(kInf);
+  std::fill(bias_.begin(), bias_.end(), Eigen::Vector3d::Zero());
+  std::fill(bias_count_.begin(), bias_count_.end(), 0);
+}
+
+const float* CorrectionBound::x_back(long back) const noexcept {
+  return x_.data() + static_cast<size_t>((n_ - back) % hist_) * kFs;
+}
+
+void CorrectionBound::apply(std::span<const float> x, std::span<float> path) noexcept {
+  const auto F = static_cast<size_t>(frames_);
+  if (x.size() < kFs || path.size() < kFs * F) return;
+  // The ring's slot for this frame: the input, and the network's displacements.
+  const auto slot = static_cast<size_t>(n_ % hist_);
+  float* x_now = x_.data() + slot * kFs;
+  std::copy(x.begin(), x.begin() + kFs, x_now);
+  float* disp_now = disp_.data() + slot * (F - 1) * kFs;
+  std::fill(disp_now, disp_now + (F - 1) * kFs, kNaN);
+  for (int j = 0; j < kJointCount; ++j) {
+    const auto ju = static_cast<size_t>(j);
+    const size_t o = 3 * ju;
+    radius_[ju] = kInf;
+    if (!finite3(x_now + o)) continue;
+    const Eigen::Vector3d xn = load(x_now + o);
+    const float* x1 = n_ >= 1 ? x_back(1) + o : nullptr;
+    const float* x2 = n_ >= 2 ? x_back(2) + o : nullptr;
+    const bool have1 = x1 && finite3(x1), have2 = have1 && x2 && finite3(x2);
+    // The noise radius is the history's: this frame's own second difference only widens
+    // the radius (an outlier is taken back) and does not yet count as noise.
+    const double s = std::sqrt(rough_[ju]);  // RMS second difference
+    const double noise_r = kCorrectionNoiseFactor * s / std::sqrt(6.0);
+    double a = 0.0;  // |second difference| now, when the joint was seen in the two frames before
+    if (have2) {
+      a = (xn - 2.0 * load(x1) + load(x2)).norm();
+      const double w = std::max(1.0 / (count_[ju] + 1), 1.0 / kCorrectionRoughnessFrames);
+      rough_[ju] += w * (a * a - rough_[ju]);
+      count_[ju] = std::min(count_[ju] + 1, 1 << 20);
+    }
+    const double r = std::max(noise_r, a);
+    radius_[ju] = r;
+    float* dj = path.data() + o;
+    if (!finite3(dj)) continue;
+    const Eigen::Vector3d d = load(dj);
+    // The denoised frame: less the network's mean offset from its input (noise averages out
+    // of a correction, a bias does not; each step at most the noise radius, so an outlier's
+    // one large correction does not become an offset), pulled into the ball around x.
+    mean_step(bias_[ju], bias_count_[ju], d - xn, noise_r);
+    const Eigen::Vector3d den = clamp_into(d - bias_[ju], xn, r);
+    store(den, dj);
+    // Predicted frame f: the network's displacement less its mean excess over what the
+    // input did in f frames, then within reach of constant velocity from the denoised
+    // frame: one RMS of the velocity's noise (s / sqrt(3) per period) and of the recent
+    // accelerations (s per period^2), plus f times this frame's jump (an outlier now
+    // throws the velocity off by that much).
+    const Eigen::Vector3d v = have1 ? Eigen::Vector3d(xn - load(x1)) : Eigen::Vector3d::Zero();
+    for (size_t f = 1; f < F; ++f) {
+      float* pf = path.data() + f * kFs + o;
+      if (!finite3(pf)) continue;
+      const Eigen::Vector3d disp = load(pf) - d;
+      store(disp, disp_now + (f - 1) * kFs + o);
+      const auto back = static_cast<long>(f);
+      if (n_ >= back) {  // the displacement predicted f frames ago, against the input's since
+        const float* then = x_back(back) + o;
+        const float* said = disp_.data() + static_cast<size_t>((n_ - back) % hist_) * (F - 1) * kFs + (f - 1) * kFs + o;
+        if (finite3(then) && finite3(said)) {
+          const size_t b = f * kJointCount + ju;
+          mean_step(bias_[b], bias_count_[b], load(said) - (xn - load(then)), noise_r);
+        }
+      }
+      const double fd = static_cast<double>(f);
+      const double reach = s * (fd / std::sqrt(3.0) + 0.5 * fd * fd) + fd * a;
+      store(clamp_into(den + disp - bias_[f * kJointCount + ju], den + fd * v, reach), pf);
+    }
+  }
+  ++n_;
+}
+
+}  // namespace hs
