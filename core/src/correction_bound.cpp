@@ -21,11 +21,23 @@ Eigen::Vector3d clamp_into(const Eigen::Vector3d& p, const Eigen::Vector3d& cent
   const double n = d.norm();
   return n > r ? Eigen::Vector3d(centre + d * (r / n)) : p;
 }
-// A running mean (a plain mean while warming up): one step towards `sample`, clipped to `step`.
-void mean_step(Eigen::Vector3d& mean, int& count, const Eigen::Vector3d& sample, double step) noexcept {
+// A running mean (a plain mean while warming up): one step towards `sample`, clipped to
+// `step`; `spread2` follows the mean squared (unclipped) innovation.
+void mean_step(Eigen::Vector3d& mean, double& spread2, int& count, const Eigen::Vector3d& sample, double step) noexcept {
   const double w = std::max(1.0 / (count + 1), 1.0 / kCorrectionBiasFrames);
+  const Eigen::Vector3d innovation = sample - mean;
+  spread2 += w * (innovation.squaredNorm() - spread2);
   mean += w * (clamp_into(sample, mean, step) - mean);
   count = std::min(count + 1, 1 << 20);
+}
+// The part of a running mean that stands out of its own noise: shrunk towards zero by two
+// standard errors (spread * sqrt(w / 2) for an exponential mean of weight w), so a mean of
+// large random corrections (outliers taken back) is not applied as an offset.
+Eigen::Vector3d significant(const Eigen::Vector3d& mean, double spread2, int count) noexcept {
+  const double w = std::max(1.0 / (count + 1), 1.0 / kCorrectionBiasFrames);
+  const double se2 = 2.0 * std::sqrt(spread2 * w / 2.0);
+  const double n = mean.norm();
+  return n > se2 ? Eigen::Vector3d(mean * (1.0 - se2 / n)) : Eigen::Vector3d::Zero();
 }
 }  // namespace
 
@@ -35,6 +47,7 @@ CorrectionBound::CorrectionBound(int frames)
       x_(static_cast<size_t>(hist_) * kFs),
       disp_(static_cast<size_t>(hist_ * (frames_ - 1)) * kFs),
       bias_(static_cast<size_t>(frames_ * kJointCount)),
+      spread_(static_cast<size_t>(frames_ * kJointCount)),
       bias_count_(static_cast<size_t>(frames_ * kJointCount)) {
   reset();
 }
@@ -47,6 +60,7 @@ void CorrectionBound::reset() noexcept {
   count_.fill(0);
   radius_.fill(kInf);
   std::fill(bias_.begin(), bias_.end(), Eigen::Vector3d::Zero());
+  std::fill(spread_.begin(), spread_.end(), 0.0);
   std::fill(bias_count_.begin(), bias_count_.end(), 0);
 }
 
@@ -90,9 +104,10 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path) noe
     const Eigen::Vector3d d = load(dj);
     // The denoised frame: less the network's mean offset from its input (noise averages out
     // of a correction, a bias does not; each step at most the noise radius, so an outlier's
-    // one large correction does not become an offset), pulled into the ball around x.
-    mean_step(bias_[ju], bias_count_[ju], d - xn, noise_r);
-    const Eigen::Vector3d den = clamp_into(d - bias_[ju], xn, r);
+    // one large correction does not become an offset; applied only where it stands out of
+    // its own standard error), pulled into the ball around x.
+    mean_step(bias_[ju], spread_[ju], bias_count_[ju], d - xn, noise_r);
+    const Eigen::Vector3d den = clamp_into(d - significant(bias_[ju], spread_[ju], bias_count_[ju]), xn, r);
     store(den, dj);
     // Predicted frame f: the network's displacement less its mean excess over what the
     // input did in f frames, then within reach of constant velocity from the denoised
@@ -104,19 +119,18 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path) noe
       float* pf = path.data() + f * kFs + o;
       if (!finite3(pf)) continue;
       const Eigen::Vector3d disp = load(pf) - d;
+      const size_t b = f * kJointCount + ju;
       store(disp, disp_now + (f - 1) * kFs + o);
       const auto back = static_cast<long>(f);
       if (n_ >= back) {  // the displacement predicted f frames ago, against the input's since
         const float* then = x_back(back) + o;
         const float* said = disp_.data() + static_cast<size_t>((n_ - back) % hist_) * (F - 1) * kFs + (f - 1) * kFs + o;
-        if (finite3(then) && finite3(said)) {
-          const size_t b = f * kJointCount + ju;
-          mean_step(bias_[b], bias_count_[b], load(said) - (xn - load(then)), noise_r);
-        }
+        if (finite3(then) && finite3(said))
+          mean_step(bias_[b], spread_[b], bias_count_[b], load(said) - (xn - load(then)), noise_r);
       }
       const double fd = static_cast<double>(f);
       const double reach = s * (fd / std::sqrt(3.0) + 0.5 * fd * fd) + fd * a;
-      store(clamp_into(den + disp - bias_[f * kJointCount + ju], den + fd * v, reach), pf);
+      store(clamp_into(den + disp - significant(bias_[b], spread_[b], bias_count_[b]), den + fd * v, reach), pf);
     }
   }
   ++n_;

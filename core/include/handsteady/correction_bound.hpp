@@ -20,7 +20,8 @@ namespace hs {
 // RMS noise a white jitter with the joint's mean squared second difference would have
 // (E|a|^2 = 6 E|n|^2), averaged over about kCorrectionRoughnessFrames earlier frames; the
 // second term lets a one-frame outlier be taken back whole. The offsets are means over
-// about kCorrectionBiasFrames frames, each step clipped to the noise radius.
+// about kCorrectionBiasFrames frames, each step clipped to the noise radius, applied only
+// beyond two of their standard errors.
 inline constexpr double kCorrectionNoiseFactor = 3.0;
 inline constexpr double kCorrectionRoughnessFrames = 15.0;
 inline constexpr double kCorrectionBiasFrames = 30.0;
@@ -53,6 +54,7 @@ class CorrectionBound {
   std::array<int, kJointCount> count_{};     // second differences averaged so far
   std::array<double, kJointCount> radius_{};
   std::vector<Eigen::Vector3d> bias_;  // per path frame and joint: mean offset (f = 0) or excess displacement
+  std::vector<double> spread_;         // their innovations' mean square (the standard error's base)
   std::vector<int> bias_count_;
 
   const float* x_back(long back) const noexcept;  // the input `back` frames ago (0 = now)
