@@ -22,11 +22,14 @@ Eigen::Vector3d clamp_into(const Eigen::Vector3d& p, const Eigen::Vector3d& cent
   return n > r ? Eigen::Vector3d(centre + d * (r / n)) : p;
 }
 // A running mean (a plain mean while warming up): one step towards `sample`, clipped to
-// `step`; `spread2` follows the mean squared (unclipped) innovation.
-void mean_step(Eigen::Vector3d& mean, double& spread2, int& count, const Eigen::Vector3d& sample, double step) noexcept {
+// `step`. `spread2` follows half the squared change between successive samples: their
+// variance, blind to a constant or slowly moving mean (so an offset not yet learnt does
+// not count as spread). `last` is the previous sample (NaN: none).
+void mean_step(Eigen::Vector3d& mean, double& spread2, Eigen::Vector3d& last, int& count, const Eigen::Vector3d& sample,
+               double step) noexcept {
   const double w = std::max(1.0 / (count + 1), 1.0 / kCorrectionBiasFrames);
-  const Eigen::Vector3d innovation = sample - mean;
-  spread2 += w * (innovation.squaredNorm() - spread2);
+  if (last.allFinite()) spread2 += w * (0.5 * (sample - last).squaredNorm() - spread2);
+  last = sample;
   mean += w * (clamp_into(sample, mean, step) - mean);
   count = std::min(count + 1, 1 << 20);
 }
@@ -48,6 +51,7 @@ CorrectionBound::CorrectionBound(int frames)
       disp_(static_cast<size_t>(hist_ * (frames_ - 1)) * kFs),
       bias_(static_cast<size_t>(frames_ * kJointCount)),
       spread_(static_cast<size_t>(frames_ * kJointCount)),
+      last_(static_cast<size_t>(frames_ * kJointCount)),
       bias_count_(static_cast<size_t>(frames_ * kJointCount)) {
   reset();
 }
@@ -61,6 +65,7 @@ void CorrectionBound::reset() noexcept {
   radius_.fill(kInf);
   std::fill(bias_.begin(), bias_.end(), Eigen::Vector3d::Zero());
   std::fill(spread_.begin(), spread_.end(), 0.0);
+  std::fill(last_.begin(), last_.end(), Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN()));
   std::fill(bias_count_.begin(), bias_count_.end(), 0);
 }
 
@@ -106,7 +111,7 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path) noe
     // of a correction, a bias does not; each step at most the noise radius, so an outlier's
     // one large correction does not become an offset; applied only where it stands out of
     // its own standard error), pulled into the ball around x.
-    mean_step(bias_[ju], spread_[ju], bias_count_[ju], d - xn, noise_r);
+    mean_step(bias_[ju], spread_[ju], last_[ju], bias_count_[ju], d - xn, noise_r);
     const Eigen::Vector3d den = clamp_into(d - significant(bias_[ju], spread_[ju], bias_count_[ju]), xn, r);
     store(den, dj);
     // Predicted frame f: the network's displacement less its mean excess over what the
@@ -126,7 +131,7 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path) noe
         const float* then = x_back(back) + o;
         const float* said = disp_.data() + static_cast<size_t>((n_ - back) % hist_) * (F - 1) * kFs + (f - 1) * kFs + o;
         if (finite3(then) && finite3(said))
-          mean_step(bias_[b], spread_[b], bias_count_[b], load(said) - (xn - load(then)), noise_r);
+          mean_step(bias_[b], spread_[b], last_[b], bias_count_[b], load(said) - (xn - load(then)), noise_r);
       }
       const double fd = static_cast<double>(f);
       const double reach = s * (fd / std::sqrt(3.0) + 0.5 * fd * fd) + fd * a;

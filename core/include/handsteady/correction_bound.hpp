@@ -54,7 +54,8 @@ class CorrectionBound {
   std::array<int, kJointCount> count_{};     // second differences averaged so far
   std::array<double, kJointCount> radius_{};
   std::vector<Eigen::Vector3d> bias_;  // per path frame and joint: mean offset (f = 0) or excess displacement
-  std::vector<double> spread_;         // their innovations' mean square (the standard error's base)
+  std::vector<double> spread_;         // their samples' variance (the standard error's base)
+  std::vector<Eigen::Vector3d> last_;  // their previous samples
   std::vector<int> bias_count_;
 
   const float* x_back(long back) const noexcept;  // the input `back` frames ago (0 = now)
