@@ -6,6 +6,8 @@
 # HS_CENTRED_MODEL=FILE adds a column for a centred model in window mode (`--offline`:
 # denoising from each frame's centred window, which sees (T-1)/2 future frames; prediction
 # from the window ending at each row, the paper's protocol).
+# HS_FPHA_UNBOUNDED=1 adds `stgae-unbounded`: the network without its trust region
+# (docs/STGAE.md "Trust region").
 # Usage: scripts/fpha_table.sh HANDSTEADY_BINARY SHARED_DATA_DIR OUT_DIR
 set -euo pipefail
 hs=$1; data=$2; out=$3
@@ -27,6 +29,12 @@ for preset in tracker paper tremor; do
     $hs filter --in "$d/noisy.csv" --out "$d/${m}_h50.csv" --method "$m" --horizon-ms 50 >/dev/null
     den+=(--in "$m=$d/$m.csv"); pre+=(--in "$m=$d/${m}_h50.csv")
   done
+  if [ "${HS_FPHA_UNBOUNDED:-0}" = 1 ] && [[ " ${methods[*]} " == *" stgae "* ]]; then
+    m=stgae-unbounded
+    $hs filter --in "$d/noisy.csv" --out "$d/$m.csv" --method stgae --unbounded >/dev/null
+    $hs filter --in "$d/noisy.csv" --out "$d/${m}_h50.csv" --method stgae --unbounded --horizon-ms 50 >/dev/null
+    den+=(--in "$m=$d/$m.csv"); pre+=(--in "$m=$d/${m}_h50.csv")
+  fi
   if [ -n "${HS_CENTRED_MODEL:-}" ]; then
     m=stgae-centred-window
     $hs filter --in "$d/noisy.csv" --out "$d/$m.csv" --method stgae --offline --model "$HS_CENTRED_MODEL" >/dev/null
