@@ -13,7 +13,7 @@ cd "$root"
 scripts/deps.sh test  # libtorch-dev and libbenchmark-dev are test dependencies
 build=${HS_BENCH_BUILD:-build/bench}
 out=${HS_BENCH_OUT:-out/bench}
-cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release -DHS_BUILD_TESTS=OFF -DHS_BUILD_DEMO=OFF \
+cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release -DHS_BUILD_TESTS=OFF -DHS_BUILD_DEMO=OFF -DHS_BUILD_TRAINING=ON \
   -DCMAKE_CXX_FLAGS="${HS_BENCH_CXXFLAGS:-}" >/dev/null
 cmake --build "$build" -j"$(nproc)" --target hs_bench_stgae
 bin="$build/training/bench/hs_bench_stgae"

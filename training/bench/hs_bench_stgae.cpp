@@ -17,6 +17,7 @@
 #include "fma_peak.hpp"
 #include "torch_window.hpp"
 
+#include "handsteady/correction_bound.hpp"
 #include "handsteady/corrupt.hpp"
 #include "handsteady/model_path.hpp"
 #include "handsteady/stgae_engine.hpp"
@@ -230,6 +231,36 @@ void bm_eigen_stream(benchmark::State& state) {
                                                 benchmark::Counter::kIsIterationInvariantRate);
 }
 
+// The trust region the streaming adapter puts on each stream step (correction_bound.hpp):
+// inputs and network paths recorded from the stream, replayed; the copy of the path
+// (312 floats) that apply() rewrites is inside the timing.
+void bm_trust_region(benchmark::State& state) {
+  const auto& c = g.model->config;
+  const int F = 1 + (c.predict ? c.horizon : 0);
+  const size_t fs = static_cast<size_t>(3 * g.n);
+  constexpr long kRecorded = 256;
+  StgaeStream<float> s(g.model->net);
+  for (long t = 0; t < kWarmupFrames; ++t) s.push(frame(t));
+  std::vector<float> paths(static_cast<size_t>(kRecorded) * static_cast<size_t>(F) * fs);
+  for (long t = 0; t < kRecorded; ++t) {
+    s.push(frame(kWarmupFrames + t));
+    float* p = paths.data() + static_cast<size_t>(t) * static_cast<size_t>(F) * fs;
+    std::copy(s.denoised().begin(), s.denoised().end(), p);
+    for (int i = 0; i + 1 < F; ++i) std::copy(s.predicted(i).begin(), s.predicted(i).end(), p + static_cast<size_t>(i + 1) * fs);
+  }
+  CorrectionBound b(F);
+  std::vector<float> path(static_cast<size_t>(F) * fs);
+  long t = 0;
+  for (auto _ : state) {
+    const long k = t++ % kRecorded;
+    const float* src = paths.data() + static_cast<size_t>(k) * static_cast<size_t>(F) * fs;
+    std::copy(src, src + path.size(), path.begin());
+    b.apply(frame(kWarmupFrames + k), path);
+    benchmark::DoNotOptimize(path.data());
+    benchmark::ClobberMemory();
+  }
+}
+
 void bm_eigen_window(benchmark::State& state) {
   for (auto _ : state) {
     auto out = stgae_window_forward(*g.model->net, g.window_in);
@@ -427,6 +458,7 @@ int run(int argc, char** argv) {
     }
   const std::string win_name = fmt::format("eigen_window/{}", g.T), torch_name = fmt::format("torch_window/{}", g.T);
   benchmark::RegisterBenchmark("eigen_stream_frame", bm_eigen_stream)->Unit(benchmark::kMicrosecond);
+  benchmark::RegisterBenchmark("trust_region_step", bm_trust_region)->Unit(benchmark::kMicrosecond);
   benchmark::RegisterBenchmark(win_name.c_str(), bm_eigen_window)->Unit(benchmark::kMicrosecond);
   benchmark::RegisterBenchmark(torch_name.c_str(), bm_torch_window)->Unit(benchmark::kMicrosecond);
 
@@ -496,6 +528,9 @@ int run(int argc, char** argv) {
   std::printf("| measurement | wall | thread CPU | GFLOP/s (CPU) | of f32 FMA peak |\n|---|---:|---:|---:|---:|\n");
   if (ms) row("Eigen streaming, per frame (Google Benchmark)", ms->real_s, ms->cpu_s, 1e-6, "µs", ff);
   row("Eigen streaming, per frame (manual loop, mean)", ds.mean, ds.cpu_mean, 1e-6, "µs", ff);
+  if (const auto mb = reporter.get("trust_region_step"))
+    std::printf("| trust region on a stream step (CorrectionBound::apply, Google Benchmark) | %.1f µs | %.1f µs | – | – |\n",
+                mb->real_s * 1e6, mb->cpu_s * 1e6);
   if (mw) row(fmt::format("Eigen window, {} frames (Google Benchmark)", g.T).c_str(), mw->real_s, mw->cpu_s, 1e-3, "ms", fw);
   row(fmt::format("Eigen window, {} frames (manual loop, mean)", g.T).c_str(), dw.mean, dw.cpu_mean, 1e-3, "ms", fw);
   if (mt)
