@@ -38,6 +38,13 @@ double max_diff(const float* a, const float* b, size_t n) {
   return w;
 }
 
+// p with white noise added to every coordinate, joint-major.
+hs::Pose jittered(hs::Pose p, std::mt19937_64& rng, std::normal_distribution<double>& noise) {
+  for (int j = 0; j < kJointCount; ++j)
+    for (int c = 0; c < 3; ++c) p(j, c) += noise(rng);
+  return p;
+}
+
 std::shared_ptr<const hs::StgaeModel> shipped_model() {
   return hs::load_hsm(std::filesystem::path(HS_FIXTURES) / ".." / ".." / "models" / "handsteady_xr26_causal.hsm");
 }
@@ -62,10 +69,7 @@ TEST_CASE("white jitter: the radius is about three noise RMS and the network's d
   std::normal_distribution<double> noise(0.0, 0.001);  // 1 mm per axis: RMS |n| = sqrt(3) mm
   double kept = 0.0, raw = 0.0;
   for (int n = 0; n < 300; ++n) {
-    hs::Pose p = hand;
-    for (int j = 0; j < kJointCount; ++j)
-      for (int c = 0; c < 3; ++c) p(j, c) += noise(rng);
-    const auto x = frame_of(p);
+    const auto x = frame_of(jittered(hand, rng, noise));
     auto path = clean;  // a perfect denoiser: its corrections are the noise, zero-mean
     b.apply(x, path);
     if (n < 30) continue;
@@ -93,11 +97,8 @@ TEST_CASE("constant offsets of the network, now and predicted, are taken out") {
   std::array<Eigen::Vector3d, 3> mean{};
   mean.fill(Eigen::Vector3d::Zero());
   for (int n = 0; n < 150; ++n) {
-    hs::Pose p = hand;
-    for (int j = 0; j < kJointCount; ++j)
-      for (int c = 0; c < 3; ++c) p(j, c) += noise(rng);
     auto path = path_near(clean, 3, 0.003, 0.002);
-    b.apply(frame_of(p), path);
+    b.apply(frame_of(jittered(hand, rng, noise)), path);
     if (n < 90) continue;
     for (size_t f = 0; f < 3; ++f) {
       const float* q = path.data() + f * kFs + 30;
@@ -220,10 +221,7 @@ TEST_CASE("the shipped model's mean answer on a still hand with tracker jitter i
         hs::Pose sum = hs::Pose::Zero(), out;
         int n = 0;
         for (double t = 0.0; t < 4.0; t += 1.0 / rate) {
-          hs::Pose p = pose;
-          for (int j = 0; j < kJointCount; ++j)
-            for (int c = 0; c < 3; ++c) p(j, c) += noise(rng);
-          f->push(t, p);
+          f->push(t, jittered(pose, rng, noise));
           f->estimate(t, out);
           if (t < 2.0) continue;
           sum += out;

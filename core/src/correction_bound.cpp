@@ -21,23 +21,30 @@ Eigen::Vector3d clamp_into(const Eigen::Vector3d& p, const Eigen::Vector3d& cent
   const double n = d.norm();
   return n > r ? Eigen::Vector3d(centre + d * (r / n)) : p;
 }
-// A running mean (a plain mean while warming up): one step towards `sample`, clipped to
-// `step`. `spread2` follows half the squared change between successive samples: their
-// variance, blind to a constant or slowly moving mean (so an offset not yet learnt does
-// not count as spread). `last` is the previous sample (NaN: none).
+// The weight of the next sample in a running mean over about `frames` samples: a plain
+// mean while fewer have been seen. Advances the count.
+double running_weight(int& count, double frames) noexcept {
+  const double w = std::max(1.0 / (count + 1), 1.0 / frames);
+  count = std::min(count + 1, 1 << 20);
+  return w;
+}
+// One step of a running mean towards `sample`, clipped to `step`. `spread2` follows half
+// the squared change between successive samples: their variance, blind to a constant or
+// slowly moving mean (so an offset not yet learnt does not count as spread). `last` is the
+// previous sample (NaN: none).
 void mean_step(Eigen::Vector3d& mean, double& spread2, Eigen::Vector3d& last, int& count, const Eigen::Vector3d& sample,
                double step) noexcept {
-  const double w = std::max(1.0 / (count + 1), 1.0 / kCorrectionBiasFrames);
+  const double w = running_weight(count, kCorrectionBiasFrames);
   if (last.allFinite()) spread2 += w * (0.5 * (sample - last).squaredNorm() - spread2);
   last = sample;
   mean += w * (clamp_into(sample, mean, step) - mean);
-  count = std::min(count + 1, 1 << 20);
 }
 // The part of a running mean that stands out of its own noise: shrunk towards zero by two
 // standard errors (spread * sqrt(w / 2) for an exponential mean of weight w), so a mean of
 // large random corrections (outliers taken back) is not applied as an offset.
 Eigen::Vector3d significant(const Eigen::Vector3d& mean, double spread2, int count) noexcept {
-  const double w = std::max(1.0 / (count + 1), 1.0 / kCorrectionBiasFrames);
+  int next = count;
+  const double w = running_weight(next, kCorrectionBiasFrames);
   const double se2 = 2.0 * std::sqrt(spread2 * w / 2.0);
   const double n = mean.norm();
   return n > se2 ? Eigen::Vector3d(mean * (1.0 - se2 / n)) : Eigen::Vector3d::Zero();
@@ -98,9 +105,7 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path) noe
     double a = 0.0;  // |second difference| now, when the joint was seen in the two frames before
     if (have2) {
       a = (xn - 2.0 * load(x1) + load(x2)).norm();
-      const double w = std::max(1.0 / (count_[ju] + 1), 1.0 / kCorrectionRoughnessFrames);
-      rough_[ju] += w * (a * a - rough_[ju]);
-      count_[ju] = std::min(count_[ju] + 1, 1 << 20);
+      rough_[ju] += running_weight(count_[ju], kCorrectionRoughnessFrames) * (a * a - rough_[ju]);
     }
     const double r = std::max(noise_r, a);
     radius_[ju] = r;
