@@ -6,7 +6,6 @@
 #include "handsteady/benchmark.hpp"
 #include "handsteady/error.hpp"
 #include "handsteady/model_path.hpp"
-#include "handsteady/stgae_filter.hpp"
 #include "handsteady/stgae_model.hpp"
 #ifdef HS_HAVE_HANDWRITING
 #include "handsteady/handwriting.hpp"
@@ -80,9 +79,15 @@ void run_benchmark(const BenchmarkOptions& o, const std::string& command) {
     std::shared_ptr<const StgaeModel> model = load_hsm(file);  // InputError naming the file
     if (model->config.padding != StgaePadding::Causal)
       throw InputError({file.string(), 0, "--model"}, "a centred model cannot stream; the benchmark runs causally");
-    methods.push_back({label, [model](const std::string&) { return make_stgae_filter(model, 0.0, 0); }, true});
-    if (o.unbounded)
-      methods.push_back({label + "-unbounded", [model](const std::string&) { return make_stgae_filter(model, 0.0, 0, false); }, true});
+    FilterConfig c;
+    c.method = FilterMethod::Stgae;
+    c.stgae.model = model;
+    c.stgae.source = file.string();
+    methods.push_back({label, [c](const std::string&) { return make_filter(c); }, true});
+    if (o.unbounded) {
+      c.stgae.bounded = false;
+      methods.push_back({label + "-unbounded", [c](const std::string&) { return make_filter(c); }, true});
+    }
     report.notes.push_back(fmt::format("model {} = {}", label, file.string()));
   }
   bench::run_grid(sets, methods, o.run, report);

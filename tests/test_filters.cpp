@@ -1,6 +1,8 @@
 // Classical filters: analytic responses (step, ramp, sine), robustness to bad input,
 // missing joints and gaps, reset, and no heap allocation in push/estimate.
 #include "handsteady/filters.hpp"
+#include "handsteady/stgae_filter.hpp"
+#include "handsteady/stgae_model.hpp"
 
 #include "test_support.hpp"
 
@@ -73,6 +75,7 @@ using Vec3 = Eigen::Vector3d;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kPi = std::numbers::pi;
+// The classical methods (Multi-STGAE has its own tests: test_stgae_engine, test_correction_bound).
 const std::array<FilterMethod, 4> kMethods = {FilterMethod::Raw, FilterMethod::OneEuro, FilterMethod::Desp,
                                               FilterMethod::Kalman};
 
@@ -131,7 +134,8 @@ Motion noisy_motion(int n, unsigned seed) {
 }  // namespace
 
 TEST_CASE("method names round-trip, unknown names and bad parameters are rejected") {
-  for (FilterMethod m : kMethods) CHECK(hs::parse_filter_method(hs::filter_method_name(m)) == m);
+  for (FilterMethod m : hs::kFilterMethods) CHECK(hs::parse_filter_method(hs::filter_method_name(m)) == m);
+  CHECK(hs::parse_filter_method("stgae") == FilterMethod::Stgae);
   CHECK_THROWS_AS(hs::parse_filter_method("one-euro"), std::invalid_argument);
   CHECK_THROWS_AS(hs::parse_filter_method(""), std::invalid_argument);
 
@@ -596,4 +600,40 @@ TEST_CASE("push and estimate never allocate") {
     g_count_allocations = false;
     CHECK_MESSAGE(g_allocations == 0, hs::filter_method_name(method));
   }
+}
+
+TEST_CASE("Multi-STGAE is one more method of the same config: make_filter and filter_series_with build it, refuse what cannot run") {
+  const auto dir = std::filesystem::path(HS_FIXTURES) / ".." / ".." / "models";
+  FilterConfig c = config(FilterMethod::Stgae);
+  CHECK_THROWS_AS(hs::make_filter(c), std::invalid_argument);  // no model
+  c.stgae.model = hs::load_hsm(dir / "handsteady_xr26_causal.hsm");
+  c.stgae.source = "causal.hsm";
+  // A hand moving as noisy_motion does.
+  const Motion m = noisy_motion(60, 3);
+  hs::HandSeries s;
+  s.t = m.t;
+  for (const Pose& p : m.pos) s.pos.push_back(hs::test::synthetic_hand() + p);
+  for (bool bounded : {true, false}) {
+    c.stgae.bounded = bounded;
+    // The same answers as the adapter built directly.
+    const auto direct = hs::make_stgae_filter(c.stgae.model, 0.0, 0, bounded);
+    const hs::HandSeries a = hs::filter_series_with(c, s, 0.02), b = hs::filter_series(*direct, s, 0.02);
+    REQUIRE(a.size() == b.size());
+    for (size_t i = 0; i < a.size(); ++i) CHECK(same_pose(a.pos[i], b.pos[i]));
+  }
+  CHECK(hs::filter_params_summary(c) == "model=causal.hsm rate_hz=30 window=16 horizon_frames=3 padding=causal mode=streaming phases=auto unbounded");
+  c.stgae.phases = 5;
+  CHECK_THROWS_AS(hs::make_filter(c), std::invalid_argument);
+  c.stgae.phases = 0;
+  c.stgae.offline = true;  // window mode is not a streaming filter
+  CHECK_THROWS_AS(hs::make_filter(c), std::invalid_argument);
+  c.stgae.offline = false;
+  c.stgae.model = hs::load_hsm(dir / "handsteady_xr26_centred.hsm");  // a centred model cannot stream
+  CHECK_THROWS_AS(hs::make_filter(c), std::invalid_argument);
+  c.stgae.offline = true;
+  const hs::HandSeries off = hs::filter_series_with(c, s, 0.0);
+  REQUIRE(off.size() == s.size());
+  CHECK(off.pos[30].allFinite());
+  CHECK(hs::filter_params_summary(c).find("mode=offline") != std::string::npos);
+  CHECK_THROWS_AS(hs::filter_series_with(c, s, -0.01), std::invalid_argument);
 }

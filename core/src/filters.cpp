@@ -6,6 +6,10 @@
 // push/estimate have no failure path besides rejecting a bad timestamp.
 #include "handsteady/filters.hpp"
 
+#include "handsteady/stgae_filter.hpp"
+#include "handsteady/stgae_model.hpp"
+#include "handsteady/stgae_offline.hpp"
+
 #include <fmt/format.h>
 
 #include <array>
@@ -239,10 +243,10 @@ void require(bool ok, std::string_view what, double value) {
 }  // namespace
 
 FilterMethod parse_filter_method(std::string_view name) {
-  for (FilterMethod m : {FilterMethod::Raw, FilterMethod::OneEuro, FilterMethod::Desp, FilterMethod::Kalman}) {
+  for (FilterMethod m : kFilterMethods) {
     if (name == filter_method_name(m)) return m;
   }
-  throw std::invalid_argument(fmt::format("unknown filter method '{}' (raw, oneeuro, desp, kalman)", name));
+  throw std::invalid_argument(fmt::format("unknown filter method '{}' (raw, oneeuro, desp, kalman, stgae)", name));
 }
 
 std::string_view filter_method_name(FilterMethod m) {
@@ -251,6 +255,7 @@ std::string_view filter_method_name(FilterMethod m) {
     case FilterMethod::OneEuro: return "oneeuro";
     case FilterMethod::Desp: return "desp";
     case FilterMethod::Kalman: return "kalman";
+    case FilterMethod::Stgae: return "stgae";
   }
   return "unknown";
 }
@@ -286,6 +291,10 @@ std::unique_ptr<PoseFilter> make_filter(const FilterConfig& c) {
               "Kalman initial speed sd must be positive (m/s)", p.init_speed_sd_mps);
       return std::make_unique<KalmanFilter>(p, c.max_gap_s);
     }
+    case FilterMethod::Stgae:
+      if (c.stgae.offline)
+        throw std::invalid_argument("Multi-STGAE window mode (offline) runs over a whole recording, not as a streaming filter");
+      return make_stgae_filter(c.stgae.model, 0.0, c.stgae.phases, c.stgae.bounded);
   }
   throw std::invalid_argument("unknown filter method");
 }
@@ -307,6 +316,17 @@ std::string filter_params_summary(const FilterConfig& c) {
       s = fmt::format("meas_sd_mm={} accel_psd={} init_speed_sd_mps={} ", c.kalman.meas_sd_m * 1e3,
                       c.kalman.accel_psd, c.kalman.init_speed_sd_mps);
       break;
+    case FilterMethod::Stgae: {
+      // The network forgets after kModelResetGapS, whatever max_gap_s says: no max_gap_ms.
+      const StgaeParams& p = c.stgae;
+      if (!p.model) return fmt::format("model={} (not loaded)", p.source);
+      const StgaeConfig& m = p.model->config;
+      return fmt::format("model={} rate_hz={} window={} horizon_frames={} padding={} mode={} phases={}{}", p.source,
+                         m.rate_hz, m.window, m.predict ? m.horizon : 0,
+                         m.padding == StgaePadding::Causal ? "causal" : "centred",
+                         p.offline ? "offline" : "streaming", p.phases == 0 ? std::string("auto") : std::to_string(p.phases),
+                         p.bounded ? "" : " unbounded");
+    }
   }
   return s + fmt::format("max_gap_ms={}", c.max_gap_s * 1e3);
 }
@@ -325,6 +345,15 @@ std::vector<HandSeries> filter_series(PoseFilter& filter, const HandSeries& seri
     for (size_t h = 0; h < horizons_s.size(); ++h) filter.estimate(series.t[i] + horizons_s[h], out[h].pos[i]);
   }
   return out;
+}
+
+HandSeries filter_series_with(const FilterConfig& config, const HandSeries& series, double horizon_s) {
+  if (config.method == FilterMethod::Stgae && config.stgae.offline) {
+    if (!config.stgae.model) throw std::invalid_argument("Multi-STGAE: no model");
+    return stgae_offline_series(*config.stgae.model, series, horizon_s);
+  }
+  const std::unique_ptr<PoseFilter> filter = make_filter(config);
+  return filter_series(*filter, series, horizon_s);
 }
 
 HandSeries filter_series(PoseFilter& filter, const HandSeries& series, double horizon_s) {

@@ -8,6 +8,7 @@
 #include "handsteady/correction_bound.hpp"
 #include "handsteady/stgae_engine.hpp"
 #include "handsteady/stgae_filter.hpp"
+#include "handsteady/time_series.hpp"
 
 #include <algorithm>
 #include <array>
@@ -93,11 +94,8 @@ class StgaeFilter final : public PoseFilter {
       push_locked(t);
     } else {
       // Every sub-grid tick in (prev_t_, t] gets the linearly interpolated frame. Ticks are
-      // t0 + m * sub_period (no accumulated rounding), and a tick up to 1 us after t counts
-      // as at t: input on the grid, written with rounded times (e.g. 1/30 s to 9 decimals),
-      // must give the tick's frame now, not one row later (which would turn every answer
-      // into an extrapolation).
-      constexpr double kTickToleranceS = 1e-6;
+      // t0 + m * sub_period (no accumulated rounding), and a tick a hair after t counts
+      // as at t (kTickToleranceS, time_series.hpp).
       while (grid_t0_ + static_cast<double>(ticks_ + 1) * sub_period_ <= t + kTickToleranceS) {
         ++ticks_;
         const double tick = grid_t0_ + static_cast<double>(ticks_) * sub_period_;
@@ -139,11 +137,8 @@ class StgaeFilter final : public PoseFilter {
     const auto i = static_cast<size_t>(coord);
     if (dt_frames_ > 0) {
       // Piecewise linear through [denoised, predicted 0, 1, ...]; beyond the last point, its last segment continues.
-      const int seg = std::clamp(static_cast<int>(std::floor(s)), 0, dt_frames_ - 1);
-      const double f = s - seg;
-      const auto p0 = static_cast<double>(p.path[static_cast<size_t>(seg) * fs + i]);
-      const auto p1 = static_cast<double>(p.path[static_cast<size_t>(seg + 1) * fs + i]);
-      return p0 + f * (p1 - p0);
+      const PathPlace at = path_place(s, dt_frames_);
+      return lerp_value(p.path[static_cast<size_t>(at.seg) * fs + i], p.path[static_cast<size_t>(at.seg + 1) * fs + i], at.f);
     }
     // Denoise only: the trend of the last two denoised frames, at most one period ahead.
     const auto d = static_cast<double>(p.path[i]);
@@ -182,15 +177,8 @@ class StgaeFilter final : public PoseFilter {
   // Pushes the frame at `tick` in (prev_t_, t], linear between the last sample and this one.
   void push_interpolated(int phase, double tick, double t) noexcept {
     const double a = std::clamp((tick - prev_t_) / (t - prev_t_), 0.0, 1.0);
-    for (int j = 0; j < n_; ++j) {
-      const auto o = static_cast<size_t>(3 * j);
-      const bool pv = !std::isnan(prev_[o]), cv = !std::isnan(cur_[o]);
-      for (int c = 0; c < 3; ++c) {
-        const size_t i = o + static_cast<size_t>(c);
-        if (pv && cv) interp_[i] = static_cast<float>(static_cast<double>(prev_[i]) + a * static_cast<double>(cur_[i] - prev_[i]));
-        else interp_[i] = a < 0.5 ? prev_[i] : cur_[i];  // the nearer sample (NaN if it misses the joint)
-      }
-    }
+    // A joint one sample misses: the nearer sample's (missing if it is the one missing it).
+    lerp_frame<float, float>(prev_, cur_, a, OneSided::Nearer, interp_);
     push_frame(phase, interp_, tick);
   }
 

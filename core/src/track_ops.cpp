@@ -1,6 +1,8 @@
 // Interpolation, resampling, mirroring and hand-size normalisation of tracks.
 #include "handsteady/track_ops.hpp"
 
+#include "handsteady/time_series.hpp"
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -18,12 +20,8 @@ Pose interpolate_pose(const HandSeries& series, double t, double max_gap_s) {
   // Here 0 < i < size: t lies strictly between rows i-1 and i.
   const double t0 = series.t[i - 1], t1 = series.t[i];
   if (t1 - t0 > max_gap_s) return untracked_pose();
-  const double w = (t - t0) / (t1 - t0);
-  Pose out = untracked_pose();
-  const Pose& a = series.pos[i - 1];
-  const Pose& b = series.pos[i];
-  for (int j = 0; j < kJointCount; ++j)
-    if (joint_tracked(a, j) && joint_tracked(b, j)) out.row(j) = (1.0 - w) * a.row(j) + w * b.row(j);
+  Pose out;
+  lerp_pose(series.pos[i - 1], series.pos[i], (t - t0) / (t1 - t0), OneSided::Drop, out);
   return out;
 }
 

@@ -2,6 +2,7 @@
 
 #include "handsteady/model_path.hpp"
 #include "handsteady/stgae_filter.hpp"
+#include "handsteady/stgae_model.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -60,17 +61,11 @@ struct Applier {
     else warnings.push_back(where + ": unknown mode '" + v + "' (off, denoise, predict)");
   }
   void method(const std::string& v, const std::string& where) {
-    if (v == "stgae") {
-      c.stgae_requested = true;
-      c.method_given = true;
-      return;
-    }
     try {
       c.filter.method = parse_filter_method(v);
       c.method_given = true;
-      c.stgae_requested = false;
     } catch (const std::exception& e) {
-      warnings.push_back(where + ": " + e.what() + "; or stgae");
+      warnings.push_back(where + ": " + e.what());
     }
   }
   void horizon_ms(double v, const std::string& where) {
@@ -105,7 +100,7 @@ struct Applier {
     else warnings.push_back(where + ": unknown worker mode '" + v + "' (auto, inline, worker, lockstep)");
   }
   void stgae_phases(double v, const std::string& where) {
-    if (v >= 0 && v <= kStgaeMaxPhases && v == std::floor(v)) c.stgae_phases = static_cast<int>(v);
+    if (v >= 0 && v <= kStgaeMaxPhases && v == std::floor(v)) c.filter.stgae.phases = static_cast<int>(v);
     else warnings.push_back(where + ": must be an integer in [0, " + std::to_string(kStgaeMaxPhases) + "]");
   }
   void log_level(const std::string& v, const std::string& where) {
@@ -232,11 +227,10 @@ FilterMethod classical_default(Mode m) { return m == Mode::Predict ? FilterMetho
 }  // namespace
 
 void resolve_engine(LayerConfig& c, std::vector<LogMessage>& messages) {
-  c.engine = Engine::Classical;
-  c.model.reset();
-  if (!c.method_given) c.filter.method = classical_default(c.mode);
-  if (c.method_given && !c.stgae_requested) return;  // a classical method was asked for
-  if (c.stgae_requested) c.filter.method = classical_default(c.mode);  // the fallback, if needed
+  const bool requested = c.method_given && c.filter.method == FilterMethod::Stgae;
+  c.filter.stgae.model.reset();
+  if (c.method_given && !requested) return;  // a classical method was asked for
+  c.filter.method = classical_default(c.mode);  // the fallback, if needed
   const std::string fallback(filter_method_name(c.filter.method));
 
   std::filesystem::path file = c.model_path;
@@ -244,21 +238,23 @@ void resolve_engine(LayerConfig& c, std::vector<LogMessage>& messages) {
     const auto dir = layer_library_dir();
     const ModelLookup found = lookup_default_model({dir.empty() ? dir : dir / HS_LAYER_MODELS_RELDIR});
     if (found.found.empty()) {
-      messages.push_back({c.stgae_requested ? LogLevel::Error : LogLevel::Info,
+      messages.push_back({requested ? LogLevel::Error : LogLevel::Info,
                           "engine " + fallback + ": no Multi-STGAE model found (tried " + found.describe_tried() + ")"});
       return;
     }
     file = found.found;
   }
   try {
-    auto model = load_hsm(file);
+    FilterConfig stgae = c.filter;
+    stgae.method = FilterMethod::Stgae;
+    stgae.stgae.model = load_hsm(file);
+    stgae.stgae.source = file.string();
     // Checks the model can stream (causal, 26 joints) before any tracker exists.
-    (void)make_stgae_filter(model, 0.0);
-    c.model = std::move(model);
+    (void)make_filter(stgae);
+    c.filter = std::move(stgae);
     c.model_path = file.string();
-    c.engine = Engine::Stgae;
     messages.push_back({LogLevel::Info, "engine stgae: model " + file.string() +
-                                            (c.stgae_requested ? " (method stgae)" : " (default: a model was found)")});
+                                            (requested ? " (method stgae)" : " (default: a model was found)")});
   } catch (const std::exception& e) {
     messages.push_back({LogLevel::Error, "engine " + fallback + ": the Multi-STGAE model " + file.string() +
                                              " cannot be used: " + e.what()});
@@ -266,7 +262,7 @@ void resolve_engine(LayerConfig& c, std::vector<LogMessage>& messages) {
 }
 
 std::string_view engine_name(const LayerConfig& c) {
-  return c.engine == Engine::Stgae ? std::string_view("stgae") : filter_method_name(c.filter.method);
+  return filter_method_name(c.filter.method);
 }
 
 std::string_view mode_name(Mode m) {
@@ -346,7 +342,7 @@ LoadedConfig load_layer_config() {
   // constant-velocity Kalman (which extrapolates) for predict; Multi-STGAE (which does
   // both) when a model is found and no method is given. Never in mode off (nothing runs).
   if (c.mode == Mode::Off) {
-    if (!c.method_given || c.stgae_requested) c.filter.method = classical_default(c.mode);
+    if (!c.method_given || c.filter.method == FilterMethod::Stgae) c.filter.method = classical_default(c.mode);
     return out;
   }
   resolve_engine(c, out.engine_messages);

@@ -2,7 +2,6 @@
 // Layer configuration: defaults, then an optional JSON file (HANDSTEADY_CONFIG), then
 // environment variables (each overrides the file). Documented in docs/OPENXR_LAYER.md.
 #include "handsteady/filters.hpp"
-#include "handsteady/stgae_model.hpp"
 
 #include <array>
 #include <cstdint>
@@ -26,8 +25,6 @@ inline FilterConfig layer_default_filter() {
   return f;
 }
 
-enum class Engine { Classical, Stgae };
-
 // Where the engine runs (tracker_filter.hpp): auto = a worker thread for Multi-STGAE, the
 // app's thread for the classical filters; lockstep = as auto, with the network's worker in
 // lockstep (its real-time answers, deterministic: simulated clocks); inline, worker: for
@@ -44,18 +41,15 @@ struct HandSettings {
 
 struct LayerConfig {
   Mode mode = Mode::Denoise;
-  // Classical: filter.method. Stgae: the Multi-STGAE streaming engine over `model`.
-  Engine engine = Engine::Classical;
-  FilterConfig filter = layer_default_filter();  // method and parameters of the engine behind PoseFilter
+  // The engine: any method behind hs::PoseFilter (filter.method). Multi-STGAE runs over
+  // filter.stgae.model, loaded once per instance by resolve_engine and shared (read-only)
+  // by every tracker; filter.stgae.phases: its streams per tracker, 0 = the app's call
+  // rate / the model rate (one model step per call), 1 = one stream (a step every model
+  // period, answers moved along its predicted path in between: a third of the compute at
+  // 90 Hz, rougher answers).
+  FilterConfig filter = layer_default_filter();
   bool method_given = false;    // false: stgae when a model is found, else the mode's classical default
-  bool stgae_requested = false; // method "stgae" given (config or env)
   std::string model_path;       // model file for stgae (empty: hs::lookup_default_model)
-  // Loaded once per instance when engine == Stgae; shared (read-only) by every tracker.
-  std::shared_ptr<const StgaeModel> model;
-  // Multi-STGAE streams per tracker: 0 = the app's call rate / the model rate (one model
-  // step per call); 1 = one stream (a step every model period, answers moved along its
-  // predicted path in between: a third of the compute at 90 Hz, rougher answers).
-  int stgae_phases = 0;
   int64_t horizon_ns = 20'000'000;  // predict mode: predict this far past the runtime's data (default of both hands)
   // Largest horizon a hand may be given at run time (the engine publishes its path this far).
   int64_t max_horizon_ns = 100'000'000;

@@ -1,7 +1,5 @@
 #include "tracker_filter.hpp"
 
-#include "handsteady/stgae_filter.hpp"
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -16,17 +14,8 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-std::unique_ptr<PoseFilter> make_layer_engine(const LayerConfig& c) {
-  if (c.engine == Engine::Stgae && c.model) {
-    // The horizon only matters for validation here: estimates are asked at explicit times.
-    const double horizon_s = c.mode == Mode::Predict ? static_cast<double>(c.horizon_ns) * 1e-9 : 0.0;
-    return make_stgae_filter(c.model, horizon_s, c.stgae_phases);
-  }
-  return make_filter(c.filter);
-}
-
 double reset_gap_s(const LayerConfig& c) {
-  return c.engine == Engine::Stgae ? std::min(c.filter.max_gap_s, kModelResetGapS) : c.filter.max_gap_s;
+  return c.filter.method == FilterMethod::Stgae ? std::min(c.filter.max_gap_s, kModelResetGapS) : c.filter.max_gap_s;
 }
 
 // How far past its newest processed sample the engine answers: the largest horizon a
@@ -38,7 +27,7 @@ double max_ahead_s(const LayerConfig& c) {
 
 Execution execution(const LayerConfig& c) {
   // The network runs off the app's thread; classical filters cost less than the hand-off.
-  const bool network = c.engine == Engine::Stgae;
+  const bool network = c.filter.method == FilterMethod::Stgae;
   switch (c.worker) {
     case WorkerMode::Inline: return Execution::Inline;
     case WorkerMode::Worker: return Execution::Worker;
@@ -76,7 +65,7 @@ TrackerFilter::TrackerFilter(std::unique_ptr<PoseFilter> engine, double reset_ga
 }
 
 TrackerFilter::TrackerFilter(const LayerConfig& config)
-    : TrackerFilter(make_layer_engine(config), reset_gap_s(config), max_ahead_s(config), execution(config)) {}
+    : TrackerFilter(make_filter(config.filter), reset_gap_s(config), max_ahead_s(config), execution(config)) {}
 
 TrackerFilter::~TrackerFilter() {
   if (!worker_.joinable()) return;
@@ -179,7 +168,7 @@ void TrackerFilter::restart(XrTime t) noexcept {
   behind_ = 0;
   epoch_ = start_ = last_ = t;
   state_->start = t;
-  state_->hist_count = 0;
+  state_->hist.clear();
   state_->velocity.setConstant(kNaN);
 }
 
@@ -241,22 +230,19 @@ void TrackerFilter::process(const Sample& s) noexcept {
     }
   }
   // Velocity: finite differences of consecutive estimates, low-passed.
-  if (!first && st.hist_count > 0) {
-    const int prev = (st.hist_head - 1 + kHistory) % kHistory;
-    const double dt = static_cast<double>(s.t - st.hist_t[prev]) * 1e-9;
+  if (!first && st.hist.size() > 0) {
+    const Pose& prev = st.hist.newest_pose();
+    const double dt = static_cast<double>(s.t - st.hist.newest()) * 1e-9;
     const double a = dt / (dt + 1.0 / (2.0 * std::numbers::pi * kVelocityCutoffHz));
     for (int j = 0; j < kJointCount; ++j)
       for (int k = 0; k < 3; ++k) {
-        const double d = (est(j, k) - st.hist[prev](j, k)) / dt;
+        const double d = (est(j, k) - prev(j, k)) / dt;
         double& v = st.velocity(j, k);
         if (!std::isfinite(d)) v = kNaN;
         else v = std::isfinite(v) ? v + a * (d - v) : d;
       }
   }
-  st.hist[st.hist_head] = est;
-  st.hist_t[st.hist_head] = s.t;
-  st.hist_head = (st.hist_head + 1) % kHistory;
-  st.hist_count = std::min(st.hist_count + 1, kHistory);
+  st.hist.push(s.t, est);
   st.path[0] = est;
   for (int k = 1; k < kKnots; ++k) engine_->estimate(seconds(s.t + k * st.step), st.path[k]);
   st.t0 = s.t;
@@ -273,10 +259,8 @@ void TrackerFilter::publish() noexcept {
 
 bool TrackerFilter::Published::path_at(XrTime t, XrTime max_ahead, Pose& out) const noexcept {
   if (t < t0 || t - t0 > max_ahead) return false;
-  const XrTime ahead = t - t0;
-  const XrTime k = std::min<XrTime>(ahead / step, kKnots - 2);
-  const double w = static_cast<double>(ahead - k * step) / static_cast<double>(step);
-  out = (1.0 - w) * path[k] + w * path[k + 1];  // NaN rows stay NaN
+  const PathPlace at = path_place(static_cast<double>(t - t0) / static_cast<double>(step), kKnots - 1);
+  lerp_pose(path[static_cast<size_t>(at.seg)], path[static_cast<size_t>(at.seg + 1)], at.f, OneSided::Drop, out);
   return true;
 }
 
@@ -299,17 +283,7 @@ bool TrackerFilter::answer(XrTime q, const Sample* pending, Answer& out) const n
       out.corrected = true;
     }
   } else {
-    // Newest to oldest: consecutive entries a (older) <= q <= b (newer).
-    bool found = false;
-    for (int n = 0; n + 1 < p.hist_count && !found; ++n) {
-      const int ib = (p.hist_head - 1 - n + 2 * kHistory) % kHistory;
-      const int ia = (ib - 1 + kHistory) % kHistory;
-      if (q < p.hist_t[ia]) continue;
-      const double w = static_cast<double>(q - p.hist_t[ia]) / static_cast<double>(p.hist_t[ib] - p.hist_t[ia]);
-      out.pose = (1.0 - w) * p.hist[ia] + w * p.hist[ib];
-      found = true;
-    }
-    if (!found) return false;
+    if (p.hist.at(q, out.pose) == TimeAnswer::None) return false;
   }
   out.velocity = p.velocity;
   out.centre = p.centre;

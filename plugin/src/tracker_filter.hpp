@@ -26,6 +26,7 @@
 // engine fills a back buffer, then swaps it in); both are held only for copies and reads,
 // never across the engine. No heap allocation after construction.
 #include "handsteady/filters.hpp"
+#include "handsteady/time_series.hpp"
 #include "joint_gate.hpp"
 #include "layer_config.hpp"
 
@@ -61,8 +62,8 @@ class TrackerFilter {
  public:
   // Throws std::invalid_argument for a bad filter configuration (at tracker creation).
   TrackerFilter(std::unique_ptr<PoseFilter> engine, double reset_gap_s, double max_ahead_s, Execution exec);
-  // The layer's engine from its configuration: Multi-STGAE over config.model (shared,
-  // loaded once per instance; this tracker gets its own stream state) or config.filter.
+  // The layer's engine from its configuration: make_filter(config.filter) (Multi-STGAE:
+  // the model is shared, loaded once per instance; this tracker gets its own streams).
   explicit TrackerFilter(const LayerConfig& config);
   ~TrackerFilter();
   TrackerFilter(const TrackerFilter&) = delete;
@@ -115,9 +116,7 @@ class TrackerFilter {
     Eigen::Vector3d centre = Eigen::Vector3d::Zero();  // median joint of the newest input
     std::array<Pose, kKnots> path;  // estimate at t0 + k * step
     Velocity velocity;
-    std::array<XrTime, kHistory> hist_t{};
-    std::array<Pose, kHistory> hist;  // estimate at hist_t
-    int hist_head = 0, hist_count = 0;
+    PoseHistory<kHistory, XrTime> hist;  // past estimates, at their sample times
     // The engine's response to innovation, per joint (NaN: not measured yet).
     std::array<double, kJointCount> gain = filled(std::numeric_limits<double>::quiet_NaN());
     // The path at time t (t0 <= t <= t0 + max ahead), false beyond.

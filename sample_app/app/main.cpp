@@ -8,7 +8,6 @@
 #include "handsteady/filters.hpp"
 #include "handsteady/ink.hpp"
 #include "handsteady/model_path.hpp"
-#include "handsteady/stgae_filter.hpp"
 #include "handsteady/stgae_model.hpp"
 #include "handsteady/track_ops.hpp"
 #include "handsteady_render/context.hpp"
@@ -54,8 +53,11 @@ std::optional<hs::demo::Prediction> predict_from_raw(const hs::HandSeries& raw, 
     p.horizon_ms = horizon_ms;
     const std::filesystem::path file = hs::default_model_path();
     p.model = file.filename().string();
-    const auto filter = hs::make_stgae_filter(hs::load_hsm(file), horizon_ms * 1e-3);
-    p.at_row = hs::filter_series(*filter, raw, horizon_ms * 1e-3);
+    hs::FilterConfig config;
+    config.method = hs::FilterMethod::Stgae;
+    config.stgae.model = hs::load_hsm(file);
+    config.stgae.source = file.string();
+    p.at_row = hs::filter_series_with(config, raw, horizon_ms * 1e-3);
     return p;
   } catch (const std::exception& e) {
     fmt::print("demo: no prediction in the plot: {}\n", e.what());

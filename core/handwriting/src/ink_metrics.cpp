@@ -2,6 +2,7 @@
 #include "handsteady/ink.hpp"
 
 #include "handsteady/gap_policy.hpp"
+#include "handsteady/track_ops.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -96,29 +97,18 @@ double ink_period(std::span<const InkStroke> ink) {
   return median(std::move(dts));
 }
 
-// The truth's index tip alone, interpolated linearly like hs::interpolate_pose (untracked
-// outside the series, across a gap > 0.25 s, or next to an untracked sample).
+// The truth's index tip at any time (hs::interpolate_pose: untracked outside the series,
+// across a gap > kInterpolateMaxGapS, or next to an untracked sample).
 class IndexTipTrack {
  public:
-  explicit IndexTipTrack(const HandSeries& truth) : t_(truth.t) {
-    p_.reserve(truth.size());
-    for (const Pose& pose : truth.pos) p_.emplace_back(pose.row(idx(Joint::IndexTip)).transpose());
-  }
+  explicit IndexTipTrack(const HandSeries& truth) : truth_(truth) {}
   std::optional<Eigen::Vector3d> at(double t) const {
-    if (t_.empty() || !(t >= t_.front() && t <= t_.back())) return std::nullopt;
-    const auto i = static_cast<size_t>(std::lower_bound(t_.begin(), t_.end(), t) - t_.begin());
-    if (t_[i] == t) return tracked(p_[i]);
-    if (t_[i] - t_[i - 1] > kInterpolateMaxGapS || !tracked(p_[i]) || !tracked(p_[i - 1])) return std::nullopt;
-    const double w = (t - t_[i - 1]) / (t_[i] - t_[i - 1]);
-    return (1.0 - w) * p_[i - 1] + w * p_[i];
+    const Eigen::Vector3d p = interpolate_pose(truth_, t).row(idx(Joint::IndexTip)).transpose();
+    return std::isnan(p.x()) ? std::nullopt : std::optional<Eigen::Vector3d>(p);
   }
 
  private:
-  static std::optional<Eigen::Vector3d> tracked(const Eigen::Vector3d& p) {
-    return std::isnan(p.x()) ? std::nullopt : std::optional<Eigen::Vector3d>(p);
-  }
-  std::vector<double> t_;
-  std::vector<Eigen::Vector3d> p_;
+  const HandSeries& truth_;
 };
 
 // Normalised cross-correlation of the ink velocity at t with the truth's at t - tau; the

@@ -1,11 +1,16 @@
 #pragma once
-// Classical streaming filters behind one interface: push timestamped poses (joints may
-// be missing), ask for the estimate at any time >= the last input.
+// Every method behind one interface: push timestamped poses (joints may be missing), ask
+// for the estimate at any time >= the last input. One FilterConfig names the method and
+// carries its parameters, classical (raw, One Euro, DESP, Kalman) or learned (Multi-STGAE:
+// stgae_filter.hpp streams it, stgae_offline.hpp runs a centred model in window mode);
+// make_filter builds any streaming one. The CLI, the layer, the demo and the benchmark
+// all choose their method this way.
 // Real-time safe: push/estimate never allocate, never throw.
 // Equations, defaults and the handling of gaps: docs/FILTERS.md.
 #include "handsteady/gap_policy.hpp"
 #include "handsteady/track.hpp"
 
+#include <array>
 #include <memory>
 #include <span>
 #include <string>
@@ -13,6 +18,8 @@
 #include <vector>
 
 namespace hs {
+
+struct StgaeModel;  // stgae_model.hpp
 
 class PoseFilter {
  public:
@@ -31,8 +38,11 @@ class PoseFilter {
   virtual double last_time() const noexcept = 0;
 };
 
-enum class FilterMethod { Raw, OneEuro, Desp, Kalman };
-// "raw", "oneeuro", "desp", "kalman"; throws std::invalid_argument otherwise.
+enum class FilterMethod { Raw, OneEuro, Desp, Kalman, Stgae };
+inline constexpr std::array<FilterMethod, 5> kFilterMethods = {FilterMethod::Raw, FilterMethod::OneEuro,
+                                                               FilterMethod::Desp, FilterMethod::Kalman,
+                                                               FilterMethod::Stgae};
+// "raw", "oneeuro", "desp", "kalman", "stgae"; throws std::invalid_argument otherwise.
 FilterMethod parse_filter_method(std::string_view name);
 std::string_view filter_method_name(FilterMethod m);
 
@@ -59,17 +69,31 @@ struct KalmanParams {
   double init_speed_sd_mps = 1.0;   // prior sd of the velocity at (re)initialisation
 };
 
+// Multi-STGAE (docs/STGAE.md). Streaming needs a causal model; window mode (`offline`) a
+// centred one, and runs over a whole recording (filter_series_with), not as a PoseFilter.
+struct StgaeParams {
+  std::shared_ptr<const StgaeModel> model;  // required
+  std::string source;  // the file it came from (for the summary)
+  int phases = 0;      // interleaved streams; 0 = input rate / model rate (stgae_filter.hpp)
+  bool bounded = true; // false: the network's own answer, without the trust region
+  bool offline = false;
+};
+
 struct FilterConfig {
   FilterMethod method = FilterMethod::OneEuro;
   OneEuroParams oneeuro;
   DespParams desp;
   KalmanParams kalman;
+  StgaeParams stgae;
   // A joint unseen for longer than this (relative to the last input) has no estimate
-  // and re-initialises when it reappears.
+  // and re-initialises when it reappears (classical methods; the network forgets after
+  // kModelResetGapS).
   double max_gap_s = kFilterForgetGapS;
 };
 
-// Throws std::invalid_argument naming the parameter when a parameter is out of range.
+// A streaming filter for any method. Throws std::invalid_argument naming the parameter
+// when a parameter is out of range, the model is missing or cannot stream, or for
+// window mode (stgae.offline: use filter_series_with).
 std::unique_ptr<PoseFilter> make_filter(const FilterConfig& config);
 
 // The parameters that matter for config.method, "key=value" separated by spaces, e.g.
@@ -84,5 +108,8 @@ HandSeries filter_series(PoseFilter& filter, const HandSeries& series, double ho
 // The same for several horizons in one pass: one output per horizon, all from the same
 // filter states (row i's answers at t_i + h for each h).
 std::vector<HandSeries> filter_series(PoseFilter& filter, const HandSeries& series, std::span<const double> horizons_s);
+// One hand through any method: a streaming filter made for it (filter_series above), or
+// a centred model's window mode (stgae.offline, stgae_offline.hpp). Throws as make_filter.
+HandSeries filter_series_with(const FilterConfig& config, const HandSeries& series, double horizon_s);
 
 }  // namespace hs

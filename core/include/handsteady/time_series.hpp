@@ -1,0 +1,129 @@
+#pragma once
+// Poses over time, written once: the tolerance that puts a sample on a grid tick, linear
+// interpolation of frames with an explicit rule for joints one side misses, reading a
+// path of points one period apart ([denoised, predicted...]) at any time, and a
+// fixed-size history that answers a time exactly, by interpolation, or not at all
+// (Monado's m_relation_history is the pattern). How long a gap may be bridged: gap_policy.hpp.
+// Users: track_ops (interpolate_pose, resampling), the Multi-STGAE adapter (grid frames,
+// path answers), its window mode, the layer's published estimates.
+#include "handsteady/track.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstddef>
+#include <limits>
+#include <span>
+
+namespace hs {
+
+// A grid tick up to this long after a sample counts as at it: recorded times are rounded
+// (1/30 s written to 9 decimals), and a tick a hair after its sample must be answered by
+// that sample, not by the next one (which would turn every answer into an extrapolation).
+inline constexpr double kTickToleranceS = 1e-6;
+
+// What an interpolated joint is when only one of the two bracketing frames has it.
+enum class OneSided {
+  Drop,    // missing: nothing is invented (interpolate_pose, the layer's history)
+  Nearer,  // the nearer frame's value, missing when that one misses it (streaming frames)
+  Either,  // whichever frame has it (window mode: the model fills only real holes)
+};
+
+// out = a + w (b - a) per joint, for frames of joints x 3 values (joint-major xyz, NaN x =
+// joint missing); w in [0, 1]. The difference is taken in the input's precision.
+template <class In, class Out>
+void lerp_frame(std::span<const In> a, std::span<const In> b, double w, OneSided rule, std::span<Out> out) noexcept {
+  for (size_t o = 0; o + 2 < out.size(); o += 3) {
+    const bool ha = !std::isnan(a[o]), hb = !std::isnan(b[o]);
+    for (size_t i = o; i < o + 3; ++i) {
+      if (ha && hb) {
+        out[i] = static_cast<Out>(static_cast<double>(a[i]) + w * static_cast<double>(b[i] - a[i]));
+      } else if (rule == OneSided::Drop || (!ha && !hb)) {
+        out[i] = std::numeric_limits<Out>::quiet_NaN();
+      } else if (rule == OneSided::Nearer) {
+        out[i] = static_cast<Out>(w < 0.5 ? a[i] : b[i]);
+      } else {
+        out[i] = static_cast<Out>(ha ? a[i] : b[i]);
+      }
+    }
+  }
+}
+inline void lerp_pose(const Pose& a, const Pose& b, double w, OneSided rule, Pose& out) noexcept {
+  // Pose is row-major (joint, xyz): its storage is the joint-major frame.
+  lerp_frame<double, double>({a.data(), 3 * kJointCount}, {b.data(), 3 * kJointCount}, w, rule,
+                             {out.data(), 3 * kJointCount});
+}
+
+// a + f (b - a) in double, for values stored in any precision.
+template <class T>
+double lerp_value(T a, T b, double f) noexcept {
+  const auto x = static_cast<double>(a);
+  return x + f * (static_cast<double>(b) - x);
+}
+
+// Where time s (in periods after point 0) falls on a path of points 0..last one period
+// apart (last >= 1): between point seg and seg + 1 at fraction f. Before point 0 the first
+// segment continues backwards, after the last point the last one continues forwards.
+struct PathPlace {
+  int seg = 0;
+  double f = 0.0;
+};
+inline PathPlace path_place(double s, int last) noexcept {
+  const int seg = std::clamp(static_cast<int>(std::floor(s)), 0, last - 1);
+  return {seg, s - seg};
+}
+
+// How a time was answered (m_relation_history's flags, without orientations).
+enum class TimeAnswer { None, Exact, Interpolated, Predicted };
+
+// The last N poses at increasing times (a ring, no allocation), answered at any time
+// between the oldest and the newest: exactly at a kept time, else linearly between the two
+// around it (joints one of them misses: missing). Time is any ordered number (seconds,
+// XrTime nanoseconds).
+template <int N, class Time>
+class PoseHistory {
+ public:
+  void clear() noexcept { count_ = 0; }
+  int size() const noexcept { return count_; }
+  // Times must increase; an older or equal one is refused (false).
+  bool push(Time t, const Pose& p) noexcept {
+    if (count_ > 0 && !(t > time_[index(0)])) return false;
+    head_ = (head_ + 1) % N;
+    time_[static_cast<size_t>(head_)] = t;
+    pose_[static_cast<size_t>(head_)] = p;
+    count_ = std::min(count_ + 1, N);
+    return true;
+  }
+  // The newest entry (size() > 0).
+  Time newest() const noexcept { return time_[index(0)]; }
+  const Pose& newest_pose() const noexcept { return pose_[index(0)]; }
+  TimeAnswer at(Time q, Pose& out) const noexcept {
+    // Newest to oldest: entries a (older) <= q <= b (newer).
+    for (int n = 0; n < count_; ++n) {
+      const size_t b = index(n);
+      if (q == time_[b]) {
+        out = pose_[b];
+        return TimeAnswer::Exact;
+      }
+      if (n + 1 >= count_ || q > time_[b]) continue;
+      const size_t a = index(n + 1);
+      if (q < time_[a]) continue;
+      if (q == time_[a]) {
+        out = pose_[a];
+        return TimeAnswer::Exact;
+      }
+      const double w = static_cast<double>(q - time_[a]) / static_cast<double>(time_[b] - time_[a]);
+      lerp_pose(pose_[a], pose_[b], w, OneSided::Drop, out);
+      return TimeAnswer::Interpolated;
+    }
+    return TimeAnswer::None;
+  }
+
+ private:
+  size_t index(int back) const noexcept { return static_cast<size_t>((head_ - back + 2 * N) % N); }
+  std::array<Time, N> time_{};
+  std::array<Pose, N> pose_{};
+  int head_ = N - 1, count_ = 0;
+};
+
+}  // namespace hs
