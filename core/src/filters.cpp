@@ -110,12 +110,6 @@ class RawFilter final : public JointwiseFilter<RawFilter> {
 };
 
 // ---- One Euro (Casiez et al. 2012) ------------------------------------------------------
-// Smoothing factor of a first-order low-pass with cutoff fc at sample interval te.
-double low_pass_alpha(double cutoff_hz, double te) {
-  const double tau = 1.0 / (2.0 * std::numbers::pi * cutoff_hz);
-  return 1.0 / (1.0 + tau / te);
-}
-
 class OneEuroFilter final : public JointwiseFilter<OneEuroFilter> {
  public:
   OneEuroFilter(const OneEuroParams& p, double max_gap_s) : JointwiseFilter(max_gap_s), p_(p) {}
@@ -241,6 +235,11 @@ void require(bool ok, std::string_view what, double value) {
 }
 
 }  // namespace
+
+double low_pass_alpha(double cutoff_hz, double te) noexcept {
+  const double tau = 1.0 / (2.0 * std::numbers::pi * cutoff_hz);
+  return 1.0 / (1.0 + tau / te);
+}
 
 FilterMethod parse_filter_method(std::string_view name) {
   for (FilterMethod m : kFilterMethods) {

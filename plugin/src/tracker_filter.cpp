@@ -4,7 +4,6 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
-#include <numbers>
 
 #include <pthread.h>
 #include <sched.h>
@@ -233,7 +232,7 @@ void TrackerFilter::process(const Sample& s) noexcept {
   if (!first && st.hist.size() > 0) {
     const Pose& prev = st.hist.newest_pose();
     const double dt = static_cast<double>(s.t - st.hist.newest()) * 1e-9;
-    const double a = dt / (dt + 1.0 / (2.0 * std::numbers::pi * kVelocityCutoffHz));
+    const double a = low_pass_alpha(kVelocityCutoffHz, dt);
     for (int j = 0; j < kJointCount; ++j)
       for (int k = 0; k < 3; ++k) {
         const double d = (est(j, k) - prev(j, k)) / dt;

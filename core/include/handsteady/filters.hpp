@@ -38,6 +38,10 @@ class PoseFilter {
   virtual double last_time() const noexcept = 0;
 };
 
+// Smoothing factor of a first-order low-pass with cutoff cutoff_hz at sample interval te
+// (One Euro's, and the layer's velocity estimate).
+double low_pass_alpha(double cutoff_hz, double te) noexcept;
+
 enum class FilterMethod { Raw, OneEuro, Desp, Kalman, Stgae };
 inline constexpr std::array<FilterMethod, 5> kFilterMethods = {FilterMethod::Raw, FilterMethod::OneEuro,
                                                                FilterMethod::Desp, FilterMethod::Kalman,
