@@ -10,6 +10,7 @@
 #include "handsteady/stgae_engine.hpp"
 
 #include "handsteady/skeleton.hpp"
+#include "handsteady/stgae_topology.hpp"
 
 #include <algorithm>
 #include <array>
@@ -485,28 +486,30 @@ StgaeNet<S>::StgaeNet(const StgaeConfig& c, const StgaeWeights& w) : impl_(std::
   m.shape = static_cast<S>(c.shape_scale_m);
   m.inv_shape = static_cast<S>(1.0 / c.shape_scale_m);
   m.inv_vel = static_cast<S>(1.0 / c.velocity_scale_m);
-  const Pad pad = m.causal ? Pad::Causal : Pad::Centred;
-  const auto& enc = c.encoder_channels;
-  for (size_t i = 0; i + 1 < enc.size(); ++i)
-    m.enc.push_back(make_block<S>(c, w, gp, "enc." + std::to_string(i) + ".", enc[i], enc[i + 1], c.temporal_kernel, pad, false));
-  const auto& den = c.denoise_decoder_channels;
-  for (size_t i = 0; i + 1 < den.size(); ++i)
-    m.den.push_back(make_block<S>(c, w, gp, "den." + std::to_string(i) + ".", den[i], den[i + 1], c.temporal_kernel, pad,
-                                  i + 2 == den.size()));
   m.gates = c.gates;
-  if (c.gates) m.enc_gate = make_gate<S>(w, "enc_gate.", m.C);
-  if (c.predict) {
-    if (c.gates) m.pre_gate = make_gate<S>(w, "pre_gate.", m.C);
-    if (m.causal) {
-      m.lift = transposed<S>(w.at("pre.lift.weight"));
-      m.lift_b = Eigen::Map<const Eigen::RowVectorXf>(w.at("pre.lift.bias").data.data(), m.DT * m.C).cast<S>();
-    } else {
-      m.head = make_block<S>(c, w, gp, "pre.head.", m.C, m.C, c.window - c.horizon + 1, Pad::Valid, false);
+  for (const StgaeNode& node : stgae_topology(c)) {
+    switch (node.kind) {
+      case StgaeNodeKind::Block: {
+        const Pad pad = node.pad == StgaeTemporalPad::Causal    ? Pad::Causal
+                        : node.pad == StgaeTemporalPad::Centred ? Pad::Centred
+                                                                : Pad::Valid;
+        Block<S> b = make_block<S>(c, w, gp, node.prefix, node.c_in, node.c_out, node.kernel, pad, node.linear);
+        if (node.section == StgaeSection::Encoder) m.enc.push_back(std::move(b));
+        else if (node.section == StgaeSection::Denoise) m.den.push_back(std::move(b));
+        else if (node.section == StgaeSection::PredictInput) m.head = std::move(b);
+        else m.pre.push_back(std::move(b));
+        break;
+      }
+      case StgaeNodeKind::Gate:
+        (node.section == StgaeSection::EncoderGate ? m.enc_gate : m.pre_gate) = make_gate<S>(w, node.prefix, node.c_in);
+        break;
+      case StgaeNodeKind::Lift:
+        m.lift = transposed<S>(w.at(node.prefix + "weight"));
+        m.lift_b = Eigen::Map<const Eigen::RowVectorXf>(w.at(node.prefix + "bias").data.data(), node.c_out).cast<S>();
+        break;
     }
-    const auto& pre = c.predict_decoder_channels;
-    for (size_t i = 0; i + 1 < pre.size(); ++i)
-      m.pre.push_back(make_block<S>(c, w, gp, "pre." + std::to_string(i) + ".", pre[i], pre[i + 1],
-                                    m.causal ? 1 : c.temporal_kernel, Pad::Centred, i + 2 == pre.size()));
+  }
+  if (c.predict) {
     m.pe.resize(m.DT, m.C);
     for (int i = 0; i < m.DT; ++i)
       for (int ch = 0; ch < m.C; ++ch) {

@@ -2,11 +2,13 @@
 #include "handsteady/stgae_model.hpp"
 
 #include "handsteady/skeleton.hpp"
+#include "handsteady/stgae_topology.hpp"
 
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <random>
 #include <set>
 #include <stdexcept>
@@ -198,64 +200,8 @@ std::size_t TensorSpec::numel() const {
 }
 
 std::vector<TensorSpec> stgae_tensor_specs(const StgaeConfig& c) {
-  const int K = 3;
-  const int N = c.joint_count();
   std::vector<TensorSpec> out;
-  auto bn = [&](const std::string& p, int ch) {
-    for (const char* s : {"weight", "bias", "running_mean", "running_var"}) out.push_back({p + "bn." + s, {ch}});
-  };
-  auto block = [&](const std::string& p, int cin, int cout, int kt) {
-    out.push_back({p + "gcn.conv.weight", {K * cout, cin}});
-    out.push_back({p + "gcn.conv.bias", {K * cout}});
-    bn(p + "gcn.", K * cout);
-    if (c.attention != StgaeAttention::A) out.push_back({p + "B", {K, N, N}});
-    if (c.attention == StgaeAttention::ABC) {
-      const int d = std::max(1, cin / 2);
-      if (c.c_variant == StgaeCVariant::Dot) {
-        out.push_back({p + "att.q.weight", {K * d, cin}});
-        out.push_back({p + "att.k.weight", {K * d, cin}});
-      } else {
-        out.push_back({p + "att.emb.weight", {K * d, cin}});
-        out.push_back({p + "att.a", {K, 2 * d}});
-      }
-    }
-    out.push_back({p + "tcn.conv.weight", {cout, cout, kt}});
-    out.push_back({p + "tcn.conv.bias", {cout}});
-    bn(p + "tcn.", cout);
-    out.push_back({p + "res.conv.weight", {cout, cin}});
-    out.push_back({p + "res.conv.bias", {cout}});
-    bn(p + "res.", cout);
-  };
-  auto gate = [&](const std::string& g, int ch) {
-    const int hc = std::max(1, ch / 2);
-    out.push_back({g + "shared.conv.weight", {hc, ch}});
-    out.push_back({g + "shared.conv.bias", {hc}});
-    bn(g + "shared.", hc);
-    out.push_back({g + "time.conv.weight", {ch, hc}});
-    out.push_back({g + "time.conv.bias", {ch}});
-    out.push_back({g + "joint.conv.weight", {ch, hc}});
-    out.push_back({g + "joint.conv.bias", {ch}});
-    bn(g, ch);
-  };
-  const int kt = c.temporal_kernel;
-  const auto& enc = c.encoder_channels;
-  for (size_t i = 0; i + 1 < enc.size(); ++i) block("enc." + std::to_string(i) + ".", enc[i], enc[i + 1], kt);
-  const auto& den = c.denoise_decoder_channels;
-  for (size_t i = 0; i + 1 < den.size(); ++i) block("den." + std::to_string(i) + ".", den[i], den[i + 1], kt);
-  const int C = c.latent_channels();
-  if (c.gates) gate("enc_gate.", C);
-  if (c.predict) {
-    if (c.gates) gate("pre_gate.", C);
-    if (c.padding == StgaePadding::Causal) {
-      out.push_back({"pre.lift.weight", {c.horizon * C, C}});
-      out.push_back({"pre.lift.bias", {c.horizon * C}});
-    } else {
-      block("pre.head.", C, C, c.window - c.horizon + 1);
-    }
-    const auto& pre = c.predict_decoder_channels;
-    const int pkt = c.padding == StgaePadding::Causal ? 1 : kt;
-    for (size_t i = 0; i + 1 < pre.size(); ++i) block("pre." + std::to_string(i) + ".", pre[i], pre[i + 1], pkt);
-  }
+  for (auto& node : stgae_topology(c)) std::move(node.tensors.begin(), node.tensors.end(), std::back_inserter(out));
   return out;
 }
 
