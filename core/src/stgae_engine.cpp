@@ -10,6 +10,7 @@
 #include "handsteady/stgae_engine.hpp"
 
 #include "handsteady/skeleton.hpp"
+#include "handsteady/stgae_features.hpp"
 #include "handsteady/stgae_topology.hpp"
 
 #include <algorithm>
@@ -296,69 +297,6 @@ void gate_frame(const Gate<S>& g, const S* pt, const Eigen::MatrixBase<DX>& x, E
     }
 }
 
-// Hole filling (stgae_model.hpp, step 1).
-template <class S>
-struct Filler {
-  Mat<S> last;  // N x 3
-  std::vector<unsigned char> seen;
-  int wrist = 0, palm = -1;
-  bool any = false;
-  void init(int n, int w, int p) {
-    last = Mat<S>::Zero(n, 3);
-    seen.assign(static_cast<size_t>(n), 0);
-    wrist = w;
-    palm = p;
-    any = false;
-  }
-  void reset() noexcept {
-    std::fill(seen.begin(), seen.end(), static_cast<unsigned char>(0));
-    any = false;
-  }
-  static bool valid(const S* r) noexcept { return std::isfinite(r[0]) && std::isfinite(r[1]) && std::isfinite(r[2]); }
-  // raw: 3N values; out: N x 3. false (state unchanged) when nothing was ever valid.
-  bool fill(const S* raw, Mat<S>& out) noexcept {
-    const auto n = static_cast<int>(last.rows());
-    bool now = false;
-    for (int j = 0; j < n && !now; ++j) now = valid(raw + 3 * j);
-    if (!now && !any) return false;
-    for (int j = 0; j < n; ++j)
-      if (valid(raw + 3 * j)) {
-        for (int c = 0; c < 3; ++c) last(j, c) = raw[3 * j + c];
-        seen[static_cast<size_t>(j)] = 1;
-      }
-    any = true;
-    int src = -1;
-    if (seen[static_cast<size_t>(wrist)]) src = wrist;
-    else if (palm >= 0 && seen[static_cast<size_t>(palm)]) src = palm;
-    S fill_value[3] = {S(0), S(0), S(0)};
-    if (src >= 0) {
-      for (int c = 0; c < 3; ++c) fill_value[c] = last(src, c);
-    } else {
-      int cnt = 0;
-      for (int j = 0; j < n; ++j)
-        if (seen[static_cast<size_t>(j)]) {
-          for (int c = 0; c < 3; ++c) fill_value[c] += last(j, c);
-          ++cnt;
-        }
-      for (int c = 0; c < 3; ++c) fill_value[c] /= static_cast<S>(cnt);
-    }
-    for (int j = 0; j < n; ++j)
-      for (int c = 0; c < 3; ++c) out(j, c) = seen[static_cast<size_t>(j)] ? last(j, c) : fill_value[c];
-    return true;
-  }
-};
-
-// Input features of one frame (stgae_model.hpp, step 1). prev == nullptr: first frame.
-template <class S, class DF>
-void frame_features(const Mat<S>& x, const Mat<S>* prev, int wrist, S inv_shape, S inv_vel,
-                    Eigen::MatrixBase<DF>& f) noexcept {
-  for (Eigen::Index j = 0; j < x.rows(); ++j)
-    for (int c = 0; c < 3; ++c) {
-      f(j, c) = (x(j, c) - x(wrist, c)) * inv_shape;
-      f(j, 3 + c) = prev ? (x(j, c) - (*prev)(j, c)) * inv_vel : S(0);
-    }
-}
-
 // ---------------- window mode ----------------
 
 template <class S>
@@ -449,7 +387,8 @@ using namespace stgae_detail;
 template <class S>
 struct StgaeNet<S>::Impl {
   StgaeConfig config;
-  int n = 0, wrist = 0, palm = -1, T = 1, DT = 0, C = 0;
+  int n = 0, wrist = 0, T = 1, DT = 0, C = 0;
+  StgaeAnchors anchors;
   bool causal = true;
   S inv_shape = 1, inv_vel = 1, shape = 1;
   std::vector<Block<S>> enc, den, pre;
@@ -470,15 +409,8 @@ StgaeNet<S>::StgaeNet(const StgaeConfig& c, const StgaeWeights& w) : impl_(std::
   const Skeleton& sk = skeleton_by_name(c.skeleton);
   const GraphPartition gp = hand_partition(sk);
   m.n = sk.joint_count();
-  m.wrist = -1;
-  for (int j = 0; j < m.n; ++j) {
-    if (sk.joint_names[static_cast<size_t>(j)] == "wrist") m.wrist = j;
-    if (sk.joint_names[static_cast<size_t>(j)] == "palm") m.palm = j;
-  }
-  if (m.wrist < 0)
-    for (int j = 0; j < m.n; ++j)
-      if (sk.parent[static_cast<size_t>(j)] < 0) m.wrist = j;
-  if (m.wrist < 0) m.wrist = 0;
+  m.anchors = stgae_anchors(sk);
+  m.wrist = m.anchors.wrist;
   m.T = c.window;
   m.DT = c.predict ? c.horizon : 0;
   m.C = c.latent_channels();
@@ -512,11 +444,7 @@ StgaeNet<S>::StgaeNet(const StgaeConfig& c, const StgaeWeights& w) : impl_(std::
   if (c.predict) {
     m.pe.resize(m.DT, m.C);
     for (int i = 0; i < m.DT; ++i)
-      for (int ch = 0; ch < m.C; ++ch) {
-        const int two_m = ch - ch % 2;
-        const double ang = i / std::pow(10000.0, static_cast<double>(two_m) / m.C);
-        m.pe(i, ch) = static_cast<S>(ch % 2 == 0 ? std::sin(ang) : std::cos(ang));
-      }
+      for (int ch = 0; ch < m.C; ++ch) m.pe(i, ch) = static_cast<S>(stgae_positional_encoding(i, ch, m.C));
   }
 }
 
@@ -568,15 +496,14 @@ StgaeOutput<S> stgae_window_forward(const StgaeNet<S>& net, const StgaeFrames<S>
                                            " frames, got " + std::to_string(L));
   const Eigen::Index LN = Eigen::Index(L) * n;
   // 1. hole filling and features.
-  Filler<S> fill;
-  fill.init(n, m.wrist, m.palm);
+  StgaeHoleFiller<S> fill(n, m.anchors);
   Mat<S> x(LN, 3), xt(n, 3), xprev(n, 3), f(LN, 6);
   for (int t = 0; t < L; ++t) {
     if (!fill.fill(in.row(t).data(), xt))
       throw InputError(SourceLocation{"", 0, "frame " + std::to_string(t)},
                        "no joint is valid in this frame or any earlier one");
     auto ft = f.middleRows(Eigen::Index(t) * n, n);
-    frame_features(xt, t > 0 ? &xprev : nullptr, m.wrist, m.inv_shape, m.inv_vel, ft);
+    stgae_frame_features(xt, t > 0 ? &xprev : nullptr, m.wrist, m.inv_shape, m.inv_vel, ft);
     x.middleRows(Eigen::Index(t) * n, n) = xt;
     xprev = xt;
   }
@@ -733,7 +660,7 @@ void gate_step(const Gate<S>& g, GateState<S>& st, const Mat<S>& x, long t) noex
 
 template <class S>
 struct StgaeStream<S>::State {
-  Filler<S> fill;
+  StgaeHoleFiller<S> fill;
   Mat<S> x, xprev, f;
   std::vector<BlockState<S>> enc, den;
   GateState<S> enc_gate, pre_gate;
@@ -751,7 +678,7 @@ StgaeStream<S>::StgaeStream(std::shared_ptr<const StgaeNet<S>> net) : net_(std::
   if (!m.causal) throw std::invalid_argument("StgaeStream: streaming needs a causal model (this one is centred)");
   State& s = *s_;
   const int n = m.n;
-  s.fill.init(n, m.wrist, m.palm);
+  s.fill = StgaeHoleFiller<S>(n, m.anchors);
   s.x.resize(n, 3);
   s.xprev.resize(n, 3);
   s.f.resize(n, 6);
@@ -798,7 +725,7 @@ bool StgaeStream<S>::push(std::span<const S> frame) noexcept {
   const int n = m.n;
   if (frame.size() != static_cast<size_t>(3 * n)) return false;
   if (!s.fill.fill(frame.data(), s.x)) return false;
-  frame_features(s.x, s.t > 0 ? &s.xprev : nullptr, m.wrist, m.inv_shape, m.inv_vel, s.f);
+  stgae_frame_features(s.x, s.t > 0 ? &s.xprev : nullptr, m.wrist, m.inv_shape, m.inv_vel, s.f);
   s.xprev = s.x;
   const Mat<S>* cur = &s.f;
   for (size_t i = 0; i < m.enc.size(); ++i) {

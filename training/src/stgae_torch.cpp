@@ -1,6 +1,7 @@
 #include "stgae_torch.hpp"
 
 #include "handsteady/skeleton.hpp"
+#include "handsteady/stgae_features.hpp"
 #include "handsteady/stgae_topology.hpp"
 
 #include <torch/torch.h>
@@ -44,11 +45,7 @@ torch::Tensor positional_encoding(int frames, int channels, torch::Dtype dtype) 
   auto pe = torch::zeros({frames, channels}, torch::kFloat64);
   auto acc = pe.accessor<double, 2>();
   for (int i = 0; i < frames; ++i)
-    for (int c = 0; c < channels; ++c) {
-      const int m2 = c - (c % 2);  // 2m
-      const double angle = i / std::pow(10000.0, static_cast<double>(m2) / channels);
-      acc[i][c] = (c % 2 == 0) ? std::sin(angle) : std::cos(angle);
-    }
+    for (int c = 0; c < channels; ++c) acc[i][c] = stgae_positional_encoding(i, c, channels);
   return pe.to(dtype);
 }
 
