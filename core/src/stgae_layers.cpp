@@ -248,6 +248,35 @@ void BlockLayer<S>::State::reset() noexcept {
   hist.setZero();  // zeros before the sequence start = causal padding
 }
 
+// The per-frame steps shared by forward() and step(); only the time means (window sums /
+// ring) and the temporal conv (taps over the window / history ring) differ between them.
+// a. h = ReLU(x Wg + bg) (BN folded), any number of rows.
+template <class S>
+template <class DX>
+void BlockLayer<S>::gcn(const Eigen::MatrixBase<DX>& x, Mat<S>& h) const noexcept {
+  h.noalias() = x * wg_;
+  h.rowwise() += bg_;
+  h = h.cwiseMax(S(0));
+}
+
+// c. g = sum_k M_k^T h_k for one frame (h: N x K*cout, g: N x cout).
+template <class S>
+template <class DH, class DG>
+void BlockLayer<S>::aggregate(const Attention& a, const Eigen::MatrixBase<DH>& h, Eigen::MatrixBase<DG>& g) const noexcept {
+  const int cout = node_.c_out;
+  g.derived().noalias() = a.mt[0] * h.leftCols(cout);
+  for (int k = 1; k < K; ++k) g.derived().noalias() += a.mt[static_cast<size_t>(k)] * h.middleCols(k * cout, cout);
+}
+
+// e, f. y (the temporal conv + bias) -> ReLU unless linear, + the residual of x.
+template <class S>
+template <class DX>
+void BlockLayer<S>::finish(const Eigen::MatrixBase<DX>& x, Mat<S>& y) const noexcept {
+  if (!node_.linear) y = y.cwiseMax(S(0));
+  y.noalias() += x * wr_;
+  y.rowwise() += br_;
+}
+
 template <class S>
 void BlockLayer<S>::forward(int L, const Mat<S>& x, Mat<S>& y, Workspace& ws) const {
   const int n = n_, cout = node_.c_out, kt = node_.kernel;
@@ -255,9 +284,7 @@ void BlockLayer<S>::forward(int L, const Mat<S>& x, Mat<S>& y, Workspace& ws) co
   size_attention(ws.att);
   // a. gcn conv + BN + ReLU for every frame at once.
   ws.h.resize(LN, K * cout);
-  ws.h.noalias() = x * wg_;
-  ws.h.rowwise() += bg_;
-  ws.h = ws.h.cwiseMax(S(0));
+  gcn(x, ws.h);
   // b, c. graph aggregation with the attention of each frame's window.
   ws.g.resize(LN, cout);
   if (att_) {
@@ -272,9 +299,7 @@ void BlockLayer<S>::forward(int L, const Mat<S>& x, Mat<S>& y, Workspace& ws) co
       attention_matrices(nullptr, ws.att);
     }
     auto gt = ws.g.middleRows(Eigen::Index(t) * n, n);
-    gt.noalias() = ws.att.mt[0] * ws.h.block(Eigen::Index(t) * n, 0, n, cout);
-    for (int k = 1; k < K; ++k)
-      gt.noalias() += ws.att.mt[static_cast<size_t>(k)] * ws.h.block(Eigen::Index(t) * n, k * cout, n, cout);
+    aggregate(ws.att, ws.h.middleRows(Eigen::Index(t) * n, n), gt);
   }
   // d. temporal conv, tap by tap over all frames.
   const StgaeTemporalPad pad = node_.pad;
@@ -289,10 +314,8 @@ void BlockLayer<S>::forward(int L, const Mat<S>& x, Mat<S>& y, Workspace& ws) co
         ws.g.middleRows(Eigen::Index(t0 + j - off) * n, Eigen::Index(t1 - t0) * n) * wt_.middleRows(j * cout, cout);
   }
   // e. (BN folded) ReLU; f. residual (valid: from the newest frame under the kernel).
-  if (!node_.linear) y = y.cwiseMax(S(0));
   const int r0 = pad == StgaeTemporalPad::Valid ? kt - 1 : 0;
-  y.noalias() += x.middleRows(Eigen::Index(r0) * n, Eigen::Index(lout) * n) * wr_;
-  y.rowwise() += br_;
+  finish(x.middleRows(Eigen::Index(r0) * n, Eigen::Index(lout) * n), y);
 }
 
 template <class S>
@@ -305,20 +328,15 @@ void BlockLayer<S>::step(State& st, const Mat<S>& x, long t) const noexcept {
   } else if (t == 0) {
     attention_matrices(nullptr, st.att);
   }
-  st.h.noalias() = x * wg_;
-  st.h.rowwise() += bg_;
-  st.h = st.h.cwiseMax(S(0));
-  st.g.noalias() = st.att.mt[0] * st.h.leftCols(cout);
-  for (int k = 1; k < K; ++k) st.g.noalias() += st.att.mt[static_cast<size_t>(k)] * st.h.middleCols(k * cout, cout);
+  gcn(x, st.h);
+  aggregate(st.att, st.h, st.g);
   // The last kt aggregated frames, each stored twice so that the newest kt are contiguous.
   const auto p = static_cast<Eigen::Index>(t % kt);
   st.hist.middleCols(p * cout, cout) = st.g;
   st.hist.middleCols((p + kt) * cout, cout) = st.g;
   st.out.noalias() = st.hist.middleCols((p + 1) * cout, Eigen::Index(kt) * cout) * wt_;
   st.out.rowwise() += bt_;
-  if (!node_.linear) st.out = st.out.cwiseMax(S(0));
-  st.out.noalias() += x * wr_;
-  st.out.rowwise() += br_;
+  finish(x, st.out);
 }
 
 // ---------------- gate ----------------

@@ -83,6 +83,12 @@ class BlockLayer {
   template <class D>
   void attention_items(const Eigen::MatrixBase<D>& x, Attention& a, S* out) const noexcept;
   void attention_matrices(const S* mean, Attention& a) const noexcept;
+  template <class DX>
+  void gcn(const Eigen::MatrixBase<DX>& x, Mat<S>& h) const noexcept;
+  template <class DH, class DG>
+  void aggregate(const Attention& a, const Eigen::MatrixBase<DH>& h, Eigen::MatrixBase<DG>& g) const noexcept;
+  template <class DX>
+  void finish(const Eigen::MatrixBase<DX>& x, Mat<S>& y) const noexcept;
 
   StgaeNode node_;
   int n_ = 0, d_ = 1, T_ = 1;
