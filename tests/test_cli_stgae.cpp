@@ -3,6 +3,7 @@
 // model grid checked analytically with a zero-offset model), model resolution and bad
 // model files, and `--offline` window mode with a centred model (checked against the
 // engine's window forward).
+#include "handsteady/hsm_format.hpp"
 #include "handsteady/model_path.hpp"
 #include "handsteady/stgae_engine.hpp"
 #include "handsteady/stgae_filter.hpp"

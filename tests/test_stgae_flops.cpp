@@ -2,9 +2,13 @@
 // configuration (xr26: N = 26 joints, K = 3 subsets, N*N = 676).
 #include "handsteady/stgae_flops.hpp"
 
+#include "handsteady/stgae_topology.hpp"
+
 #include <doctest/doctest.h>
 
 #include <stdexcept>
+#include <string>
+#include <vector>
 
 namespace {
 
@@ -92,4 +96,31 @@ TEST_CASE("attention variants and gates change the count as expected") {
   c.predict = false;
   CHECK(hs::stgae_flops_per_frame(c).predict == 0);
   CHECK_THROWS_AS(hs::stgae_flops_per_window(c, 0), std::invalid_argument);
+}
+
+TEST_CASE("the topology lists every node once, in file order, and its counts sum to the totals") {
+  for (auto pad : {hs::StgaePadding::Causal, hs::StgaePadding::Centred}) {
+    const auto c = tiny(pad);
+    const auto nodes = hs::stgae_topology(c);
+    std::vector<std::string> prefixes;
+    std::vector<std::string> names;
+    for (const auto& n : nodes) {
+      prefixes.push_back(n.prefix);
+      for (const auto& t : n.tensors) {
+        CHECK(t.name.rfind(n.prefix, 0) == 0);
+        names.push_back(t.name);
+      }
+    }
+    const bool causal = pad == hs::StgaePadding::Causal;
+    CHECK(prefixes == std::vector<std::string>{"enc.0.", "den.0.", "enc_gate.", "pre_gate.",
+                                               causal ? "pre.lift." : "pre.head.", "pre.0."});
+    std::vector<std::string> spec_names;
+    for (const auto& s : hs::stgae_tensor_specs(c)) spec_names.push_back(s.name);
+    CHECK(names == spec_names);
+    std::int64_t macs = 0;
+    for (const auto& n : nodes) macs += n.macs(c, c.window);
+    CHECK(2 * macs == hs::stgae_flops_per_window(c, c.window).total());
+    CHECK(nodes[1].linear);
+    CHECK_FALSE(nodes[0].linear);
+  }
 }

@@ -2,6 +2,7 @@
 // every loader error path).
 #include "handsteady/stgae_model.hpp"
 
+#include "handsteady/hsm_format.hpp"
 #include "handsteady/stgae_engine.hpp"
 #include "test_support.hpp"
 
@@ -150,6 +151,20 @@ TEST_CASE(".hsm round trip (file) reproduces config, weights and reference") {
     std::filesystem::remove_all(path.parent_path());
   }
   CHECK_THROWS_AS(hs::load_hsm("/nonexistent/m.hsm"), hs::InputError);
+}
+
+TEST_CASE("the format reads a file without running the engine, loading verifies the reference") {
+  const auto c = small_config();
+  const auto w = hs::random_stgae_weights(c, 5);
+  auto ref = hs::make_stgae_reference(c, w, hs::synthetic_hand_input(c, c.window, 5));
+  ref.denoised[3] += 0.5f;  // well formed, but not what the net computes
+  const auto bytes = hs::serialize_hsm(c, w, ref);
+  const hs::HsmContents got = hs::read_hsm(bytes, "model.hsm");
+  CHECK(hs::to_json(got.config) == hs::to_json(c));
+  CHECK(got.reference.denoised == ref.denoised);
+  CHECK(hs::serialize_hsm(got.config, got.weights, got.reference) == bytes);
+  CHECK_THROWS_WITH_AS(hs::parse_hsm(bytes, "model.hsm"), doctest::Contains("reference"), hs::InputError);
+  CHECK_NOTHROW(hs::parse_hsm(bytes, "model.hsm", /*verify=*/false));
 }
 
 TEST_CASE(".hsm loader: every defect is an InputError naming the problem") {

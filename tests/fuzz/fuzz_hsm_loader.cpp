@@ -1,6 +1,7 @@
 // libFuzzer target for the .hsm loader: any byte string must either load or throw
 // hs::InputError; never crash, hang or leak. The first input of a run is replaced by a
 // valid small model (when the corpus is empty) so the fuzzer starts from real structure.
+#include "handsteady/hsm_format.hpp"
 #include "handsteady/stgae_model.hpp"
 
 #include <cstddef>

@@ -3,6 +3,7 @@
 // found; a small random causal model must give finite answers on the hand's scale with the
 // runtime's flags untouched (a random model does not denoise: that is not asserted); a
 // corrupt model falls back to the mode's classical filter, which still denoises.
+#include "handsteady/hsm_format.hpp"
 #include "handsteady/stgae_model.hpp"
 #include "handsteady/track_ops.hpp"
 #include "handsteady_xr/xr_math.hpp"

@@ -1,6 +1,8 @@
 #include "stgae_torch.hpp"
 
 #include "handsteady/skeleton.hpp"
+#include "handsteady/stgae_features.hpp"
+#include "handsteady/stgae_topology.hpp"
 
 #include <torch/torch.h>
 
@@ -43,11 +45,7 @@ torch::Tensor positional_encoding(int frames, int channels, torch::Dtype dtype) 
   auto pe = torch::zeros({frames, channels}, torch::kFloat64);
   auto acc = pe.accessor<double, 2>();
   for (int i = 0; i < frames; ++i)
-    for (int c = 0; c < channels; ++c) {
-      const int m2 = c - (c % 2);  // 2m
-      const double angle = i / std::pow(10000.0, static_cast<double>(m2) / channels);
-      acc[i][c] = (c % 2 == 0) ? std::sin(angle) : std::cos(angle);
-    }
+    for (int c = 0; c < channels; ++c) acc[i][c] = stgae_positional_encoding(i, c, channels);
   return pe.to(dtype);
 }
 
@@ -172,9 +170,9 @@ torch::Tensor BlockImpl::forward(const torch::Tensor& f) {
   // the kernel as [B, L', N, C, kt] (index c*kt + j after reshape = W's [Cout, Cin*kt] layout).
   auto gl = g.transpose(2, 3);  // [B, L, N, C]
   const int64_t kt = opt.kernel;
-  if (opt.pad == BlockOptions::Pad::Causal && kt > 1) {
+  if (opt.pad == StgaeTemporalPad::Causal && kt > 1) {
     gl = torch::constant_pad_nd(gl, {0, 0, 0, 0, kt - 1, 0});
-  } else if (opt.pad == BlockOptions::Pad::Centred && kt > 1) {
+  } else if (opt.pad == StgaeTemporalPad::Centred && kt > 1) {
     gl = torch::constant_pad_nd(gl, {0, 0, 0, 0, (kt - 1) / 2, (kt - 1) / 2});
   }
   const int64_t Lo = gl.size(1) - kt + 1;
@@ -213,40 +211,50 @@ torch::Tensor GateImpl::forward(const torch::Tensor& x) {
 // ---- network ---------------------------------------------------------------------------
 
 StgaeNetImpl::StgaeNetImpl(const StgaeConfig& cfg) : config(cfg) {
-  validate_stgae_config(config);
-  const bool causal = config.padding == StgaePadding::Causal;
-  const TimeMean mean = causal ? TimeMean::Causal : TimeMean::Whole;
-  const auto pad = causal ? BlockOptions::Pad::Causal : BlockOptions::Pad::Centred;
-  const int T = config.window, DT = config.horizon, kt = config.temporal_kernel;
-
-  auto add_blocks = [&](torch::nn::Module& parent, const std::vector<int>& ch, int kernel, BlockOptions::Pad p,
-                        TimeMean m, bool linear_last, std::vector<std::shared_ptr<BlockImpl>>& out) {
-    for (size_t i = 0; i + 1 < ch.size(); ++i) {
-      BlockOptions o{ch[i], ch[i + 1], kernel, p, m, T, !(linear_last && i + 2 == ch.size())};
-      out.push_back(parent.register_module(std::to_string(i), std::make_shared<BlockImpl>(config, o)));
+  const auto nodes = stgae_topology(config);
+  // Holders "enc", "den", "pre" and the leaves under them follow the tensor name prefixes.
+  auto parent_of = [&](const std::string& prefix, std::string& leaf) -> torch::nn::Module& {
+    const std::string path = prefix.substr(0, prefix.size() - 1);  // without the final '.'
+    const auto dot = path.find('.');
+    if (dot == std::string::npos) {
+      leaf = path;
+      return *this;
+    }
+    leaf = path.substr(dot + 1);
+    const std::string group = path.substr(0, dot);
+    auto& slot = group == "enc" ? enc : group == "den" ? den : pre;
+    if (!slot) slot = register_module(group, std::make_shared<torch::nn::Module>());
+    return *slot;
+  };
+  auto add = [&](const StgaeNode& node) {
+    std::string leaf;
+    torch::nn::Module& parent = parent_of(node.prefix, leaf);
+    switch (node.kind) {
+      case StgaeNodeKind::Block: {
+        const BlockOptions o{node.c_in, node.c_out, node.kernel, node.pad, node.mean, config.window, !node.linear};
+        auto b = parent.register_module(leaf, std::make_shared<BlockImpl>(config, o));
+        if (node.section == StgaeSection::Encoder) enc_blocks.push_back(b);
+        else if (node.section == StgaeSection::Denoise) den_blocks.push_back(b);
+        else if (node.section == StgaeSection::PredictInput) pre_head = b;
+        else pre_blocks.push_back(b);
+        break;
+      }
+      case StgaeNodeKind::Gate: {
+        auto g = parent.register_module(leaf, std::make_shared<GateImpl>(node.c_in, node.mean, config.window));
+        (node.section == StgaeSection::EncoderGate ? enc_gate : pre_gate) = g;
+        break;
+      }
+      case StgaeNodeKind::Lift:
+        pre_lift = parent.register_module(leaf, std::make_shared<Conv1x1Impl>(node.c_in, node.c_out, true));
+        break;
     }
   };
-  enc = register_module("enc", std::make_shared<torch::nn::Module>());
-  add_blocks(*enc, config.encoder_channels, kt, pad, mean, false, enc_blocks);
-  den = register_module("den", std::make_shared<torch::nn::Module>());
-  add_blocks(*den, config.denoise_decoder_channels, kt, pad, mean, true, den_blocks);
-  const int C = config.latent_channels();
-  if (config.gates) enc_gate = register_module("enc_gate", std::make_shared<GateImpl>(C, mean, T));
-  if (config.predict) {
-    pre = register_module("pre", std::make_shared<torch::nn::Module>());
-    if (causal) {
-      pre_lift = pre->register_module("lift", std::make_shared<Conv1x1Impl>(C, DT * C, true));
-      // The DT future frames are computed together: kernel 1, means over all DT frames.
-      add_blocks(*pre, config.predict_decoder_channels, 1, BlockOptions::Pad::Causal, TimeMean::Whole, true,
-                 pre_blocks);
-    } else {
-      BlockOptions o{C, C, T - DT + 1, BlockOptions::Pad::Valid, TimeMean::Whole, T, true};
-      pre_head = pre->register_module("head", std::make_shared<BlockImpl>(config, o));
-      add_blocks(*pre, config.predict_decoder_channels, kt, BlockOptions::Pad::Centred, TimeMean::Whole, true,
-                 pre_blocks);
-    }
-    if (config.gates) pre_gate = register_module("pre_gate", std::make_shared<GateImpl>(C, mean, T));
-  }
+  // The prediction gate is made last, as it always was: the same seed gives the same
+  // initial weights (and parameter order) as before.
+  for (const auto& node : nodes)
+    if (node.section != StgaeSection::PredictGate) add(node);
+  for (const auto& node : nodes)
+    if (node.section == StgaeSection::PredictGate) add(node);
 }
 
 TorchOutput StgaeNetImpl::forward(const torch::Tensor& features, int pred_frames) {

@@ -9,6 +9,7 @@
 // 1x1 convolution is a matmul over the last axis. Works in float32 and float64
 // (module->to(torch::kFloat64)).
 #include "handsteady/stgae_model.hpp"
+#include "handsteady/stgae_topology.hpp"
 
 #include <torch/nn/module.h>
 #include <torch/types.h>
@@ -20,8 +21,8 @@
 namespace hs::train {
 
 // Shared by every mean over time: causal = moving mean over frames max(0, t-T+1)..t,
-// centred = mean over all L frames of the window (broadcast back to every frame).
-enum class TimeMean { Causal, Whole };
+// whole = mean over all L frames of the window (broadcast back to every frame).
+using TimeMean = StgaeTimeMean;
 
 // W x + b over the last axis; weight [out, in] (PyTorch Conv/Linear layout).
 struct Conv1x1Impl : torch::nn::Module {
@@ -39,8 +40,9 @@ struct ChannelNormImpl : torch::nn::Module {
 };
 
 struct BlockOptions {
+  using Pad = StgaeTemporalPad;
   int c_in = 0, c_out = 0, kernel = 1;
-  enum class Pad { Causal, Centred, Valid } pad = Pad::Causal;
+  Pad pad = Pad::Causal;
   TimeMean mean = TimeMean::Causal;
   int T = 1;             // window of the causal time means
   bool relu_out = true;  // false for the last block of a decoder
@@ -88,6 +90,7 @@ struct TorchOutput {
   torch::Tensor predicted_offset;
 };
 
+// The network: one module per node of hs::stgae_topology, registered under its prefix.
 struct StgaeNetImpl : torch::nn::Module {
   explicit StgaeNetImpl(const StgaeConfig& config);
   // features: [B, L, N, 6] (hs::train::input_features); centred models need L = T when

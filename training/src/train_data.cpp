@@ -4,6 +4,7 @@
 #include "handsteady/error.hpp"
 #include "handsteady/hand_shape.hpp"
 #include "handsteady/import.hpp"
+#include "handsteady/stgae_features.hpp"
 #include "handsteady/track_ops.hpp"
 
 #include <Eigen/Geometry>
@@ -185,43 +186,15 @@ std::vector<HandSeries> load_fpha_subjects(const std::filesystem::path& root, co
 bool input_features(const std::vector<Pose>& raw, double shape_scale_m, double velocity_scale_m, double* features,
                     double* filled) {
   constexpr int N = kJointCount;
-  const int wrist = idx(Joint::Wrist), palm = idx(Joint::Palm);
-  Pose last = Pose::Zero(), prev = Pose::Zero();
-  std::array<bool, N> seen{};
+  const StgaeAnchors anchors = stgae_anchors(xr_hand_skeleton());
+  StgaeHoleFiller<double> filler(N, anchors);
+  Pose x, prev;
+  using Features = Eigen::Matrix<double, N, 6, Eigen::RowMajor>;
   for (size_t t = 0; t < raw.size(); ++t) {
-    const Pose& p = raw[t];
-    Pose x = Pose::Zero();
-    int n_seen = 0;
-    Eigen::RowVector3d sum = Eigen::RowVector3d::Zero();
-    for (int j = 0; j < N; ++j) {
-      if (p.row(j).allFinite()) {  // as the engine: a joint is valid when x, y, z are finite
-        last.row(j) = p.row(j);
-        seen[static_cast<size_t>(j)] = true;
-      }
-      if (seen[static_cast<size_t>(j)]) {
-        x.row(j) = last.row(j);
-        sum += x.row(j);
-        ++n_seen;
-      }
-    }
-    if (n_seen == 0) return false;
-    if (n_seen < N) {
-      const Eigen::RowVector3d fill = seen[static_cast<size_t>(wrist)] ? Eigen::RowVector3d(x.row(wrist))
-                                      : seen[static_cast<size_t>(palm)] ? Eigen::RowVector3d(x.row(palm))
-                                                                        : Eigen::RowVector3d(sum / n_seen);
-      for (int j = 0; j < N; ++j)
-        if (!seen[static_cast<size_t>(j)]) x.row(j) = fill;
-    }
-    const Eigen::RowVector3d w = x.row(wrist);
-    for (int j = 0; j < N; ++j) {
-      double* f = features + (t * N + static_cast<size_t>(j)) * 6;
-      double* o = filled + (t * N + static_cast<size_t>(j)) * 3;
-      for (int c = 0; c < 3; ++c) {
-        f[c] = (x(j, c) - w[c]) / shape_scale_m;
-        f[3 + c] = t == 0 ? 0.0 : (x(j, c) - prev(j, c)) / velocity_scale_m;
-        o[c] = x(j, c);
-      }
-    }
+    if (!filler.fill(raw[t].data(), x)) return false;
+    Eigen::Map<Features> f(features + t * N * 6);
+    stgae_frame_features(x, t > 0 ? &prev : nullptr, anchors.wrist, 1.0 / shape_scale_m, 1.0 / velocity_scale_m, f);
+    Eigen::Map<Pose>(filled + t * N * 3) = x;
     prev = x;
   }
   return true;

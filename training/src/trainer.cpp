@@ -6,6 +6,7 @@
 
 #include "handsteady/corrupt.hpp"
 #include "handsteady/error.hpp"
+#include "handsteady/hsm_format.hpp"
 #include "handsteady/metrics.hpp"
 #include "handsteady/skeleton.hpp"
 #include "handsteady/synth.hpp"

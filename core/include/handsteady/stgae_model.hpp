@@ -1,6 +1,7 @@
 #pragma once
 // Multi-STGAE model definition shared by the Eigen engine (core/) and libtorch training
-// (training/): configuration (JSON), tensor names and shapes, and the .hsm model file.
+// (training/): configuration (JSON), tensor names and shapes, weights, loading a model.
+// The .hsm file itself: hsm_format.hpp.
 // Architecture as implemented: docs/STGAE.md; file format: docs/MODEL_FORMAT.md.
 //
 // ============================== FORWARD PASS (exact) ==============================
@@ -137,6 +138,7 @@ struct TensorSpec {
   std::vector<int> shape;
   std::size_t numel() const;
 };
+std::string shape_text(const std::vector<int>& shape);  // "[3, 4]", for error messages
 // Every tensor of the model, in file order (see the list above).
 std::vector<TensorSpec> stgae_tensor_specs(const StgaeConfig& config);
 
@@ -188,17 +190,11 @@ StgaeReference make_stgae_reference(const StgaeConfig& config, const StgaeWeight
 // A deterministic synthetic hand input (frames x N x 3, metres) for references/tests.
 std::vector<float> synthetic_hand_input(const StgaeConfig& config, int frames, std::uint64_t seed);
 
-// .hsm file (docs/MODEL_FORMAT.md). Serialisation checks config/weights/reference shapes.
-std::vector<std::uint8_t> serialize_hsm(const StgaeConfig& config, const StgaeWeights& weights,
-                                        const StgaeReference& reference);
-void save_hsm(const std::filesystem::path& path, const StgaeConfig& config,
-              const StgaeWeights& weights, const StgaeReference& reference);
-// Parses and verifies (shapes, checksum, reference run). Any defect -> InputError naming
-// the source (file), the part (header/config/tensor name/reference/checksum) and byte offset.
+// Loading a runnable model: the .hsm file (hsm_format.hpp: read_hsm) + the float net +
+// the reference check (verify). Any defect -> InputError naming the source (file), the part
+// (header/config/tensor name/reference/checksum) and byte offset.
 std::shared_ptr<const StgaeModel> parse_hsm(std::span<const std::uint8_t> bytes,
                                             const std::string& source, bool verify = true);
 std::shared_ptr<const StgaeModel> load_hsm(const std::filesystem::path& path, bool verify = true);
-
-inline constexpr std::uint32_t kHsmVersion = 1;
 
 }  // namespace hs
