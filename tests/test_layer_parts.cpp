@@ -4,6 +4,7 @@
 #include "handsteady/filters.hpp"
 #include "joint_gate.hpp"
 #include "joint_rewrite.hpp"
+#include "layer_config.hpp"
 #include "runtime_semantics.hpp"
 #include "test_support.hpp"
 #include "tracker_filter.hpp"
@@ -11,6 +12,9 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
 #include <limits>
 
 using namespace hs;
@@ -273,4 +277,30 @@ TEST_CASE("repair: non-finite or impossible velocities lose their valid bit") {
   CHECK((vel[4].velocityFlags & XR_SPACE_VELOCITY_ANGULAR_VALID_BIT) == 0);
   CHECK((vel[4].velocityFlags & XR_SPACE_VELOCITY_LINEAR_VALID_BIT) != 0);
   CHECK(vel[5].velocityFlags == (XR_SPACE_VELOCITY_LINEAR_VALID_BIT | XR_SPACE_VELOCITY_ANGULAR_VALID_BIT));
+}
+
+TEST_CASE("configuration: read_layer_config applies the file and the environment and loads no model, as an app beside the layer reads it") {
+  const auto dir = hs::test::temp_dir("layer_read_config");
+  const auto cfg = dir / "cfg.json";
+  std::ofstream(cfg) << R"({"mode": "predict", "method": "stgae", "stgae_phases": 2})";
+  ::setenv("HANDSTEADY_CONFIG", cfg.c_str(), 1);
+  ::setenv("HANDSTEADY_MODEL", (dir / "no_such_model.hsm").c_str(), 1);
+  ::unsetenv("HANDSTEADY_MODE");
+  ::unsetenv("HANDSTEADY_METHOD");
+  ::unsetenv("HANDSTEADY_STGAE_PHASES");
+  const hs::layer::LoadedConfig read = hs::layer::read_layer_config();
+  CHECK(read.config.mode == hs::layer::Mode::Predict);
+  CHECK(read.config.filter.method == hs::FilterMethod::Stgae);  // as asked: nothing resolved yet
+  CHECK(read.config.filter.stgae.phases == 2);
+  CHECK(read.config.filter.stgae.model == nullptr);
+  CHECK(read.engine_messages.empty());
+  // The layer's own load resolves the engine: the model named is missing, so the mode's classical default.
+  const hs::layer::LoadedConfig loaded = hs::layer::load_layer_config();
+  CHECK(loaded.config.mode == hs::layer::Mode::Predict);
+  CHECK(loaded.config.filter.method == hs::FilterMethod::Kalman);
+  CHECK_FALSE(loaded.engine_messages.empty());
+  ::setenv("HANDSTEADY_MODE", "denoise", 1);  // the environment overrides the file
+  CHECK(hs::layer::read_layer_config().config.mode == hs::layer::Mode::Denoise);
+  for (const char* v : {"HANDSTEADY_CONFIG", "HANDSTEADY_MODEL", "HANDSTEADY_MODE"}) ::unsetenv(v);
+  std::filesystem::remove_all(dir);
 }

@@ -313,7 +313,7 @@ LayerConfig parse_layer_config_json(std::string_view text, const std::string& wh
   return c;
 }
 
-LoadedConfig load_layer_config() {
+LoadedConfig read_layer_config() {
   LoadedConfig out;
   LayerConfig& c = out.config;
   Applier a{c, out.warnings};
@@ -338,6 +338,12 @@ LoadedConfig load_layer_config() {
   }
   apply_hand_env(a);
   c.max_horizon_ns = std::max({c.max_horizon_ns, c.horizon_ns, c.hands[0].horizon_ns, c.hands[1].horizon_ns});
+  return out;
+}
+
+LoadedConfig load_layer_config() {
+  LoadedConfig out = read_layer_config();
+  LayerConfig& c = out.config;
   // Each mode's classical default: smoothing without lag-compensation for denoise, a
   // constant-velocity Kalman (which extrapolates) for predict; Multi-STGAE (which does
   // both) when a model is found and no method is given. Never in mode off (nothing runs).

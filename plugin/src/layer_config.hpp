@@ -75,6 +75,9 @@ struct LoadedConfig {
 // model that cannot be used is reported in engine_messages and the classical default of
 // the mode (One Euro for denoise, Kalman for predict) is used instead.
 LoadedConfig load_layer_config();
+// The same without choosing the engine (no model is loaded): defaults, the file, the
+// environment. What an app running the layer reads to know its mode (the demo's labels).
+LoadedConfig read_layer_config();
 
 // The per-hand settings from the configuration file and environment as they are now
 // (smoothing, horizon_ms: global and per hand), for re-reading while the app runs; bad

@@ -6,6 +6,7 @@
 // writing PNG frames, the final composite, the trajectory plot and a metrics summary.
 // On a headless session without frame timing (Monado's) it times its own frames.
 #include "handsteady/filters.hpp"
+#include "layer_config.hpp"
 #include "handsteady/ink.hpp"
 #include "handsteady/model_path.hpp"
 #include "handsteady/stgae_model.hpp"
@@ -40,10 +41,8 @@ struct Options {
   bool window = false, headless = false;
 };
 
-std::string layer_mode() {
-  const char* m = std::getenv("HANDSTEADY_MODE");
-  return m && *m ? m : "denoise";
-}
+// The layer's mode as the layer itself reads it (its configuration file and environment).
+std::string layer_mode() { return std::string(hs::layer::mode_name(hs::layer::read_layer_config().config.mode)); }
 
 // The shipped (or HANDSTEADY_MODEL) Multi-STGAE model run causally over the raw joints,
 // each row answered for row time + horizon; none (with a note) when no model is usable.
