@@ -21,7 +21,7 @@ Pose interpolate_pose(const HandSeries& series, double t, double max_gap_s) {
   const double t0 = series.t[i - 1], t1 = series.t[i];
   if (t1 - t0 > max_gap_s) return untracked_pose();
   Pose out;
-  lerp_pose(series.pos[i - 1], series.pos[i], (t - t0) / (t1 - t0), OneSided::Drop, out);
+  lerp_pose(series.pos[i - 1], series.pos[i], (t - t0) / (t1 - t0), out);
   return out;
 }
 

@@ -258,8 +258,10 @@ void TrackerFilter::publish() noexcept {
 
 bool TrackerFilter::Published::path_at(XrTime t, XrTime max_ahead, Pose& out) const noexcept {
   if (t < t0 || t - t0 > max_ahead) return false;
-  const PathPlace at = path_place(static_cast<double>(t - t0) / static_cast<double>(step), kKnots - 1);
-  lerp_pose(path[static_cast<size_t>(at.seg)], path[static_cast<size_t>(at.seg + 1)], at.f, OneSided::Drop, out);
+  const XrTime ahead = t - t0;
+  const PathPlace at = path_place(static_cast<double>(ahead) / static_cast<double>(step), kKnots - 1);
+  const double w = static_cast<double>(ahead - at.seg * step) / static_cast<double>(step);  // in integer time: exact
+  lerp_pose(path[static_cast<size_t>(at.seg)], path[static_cast<size_t>(at.seg + 1)], w, out);
   return true;
 }
 

@@ -48,10 +48,13 @@ void lerp_frame(std::span<const In> a, std::span<const In> b, double w, OneSided
     }
   }
 }
-inline void lerp_pose(const Pose& a, const Pose& b, double w, OneSided rule, Pose& out) noexcept {
-  // Pose is row-major (joint, xyz): its storage is the joint-major frame.
-  lerp_frame<double, double>({a.data(), 3 * kJointCount}, {b.data(), 3 * kJointCount}, w, rule,
-                             {out.data(), 3 * kJointCount});
+// Poses (double): (1 - w) a + w b per joint, missing where either misses the joint
+// (OneSided::Drop, the only rule poses need).
+inline void lerp_pose(const Pose& a, const Pose& b, double w, Pose& out) noexcept {
+  for (int j = 0; j < kJointCount; ++j) {
+    if (joint_tracked(a, j) && joint_tracked(b, j)) out.row(j) = (1.0 - w) * a.row(j) + w * b.row(j);
+    else out.row(j).setConstant(std::numeric_limits<double>::quiet_NaN());
+  }
 }
 
 // a + f (b - a) in double, for values stored in any precision.
@@ -113,7 +116,7 @@ class PoseHistory {
         return TimeAnswer::Exact;
       }
       const double w = static_cast<double>(q - time_[a]) / static_cast<double>(time_[b] - time_[a]);
-      lerp_pose(pose_[a], pose_[b], w, OneSided::Drop, out);
+      lerp_pose(pose_[a], pose_[b], w, out);
       return TimeAnswer::Interpolated;
     }
     return TimeAnswer::None;
