@@ -1,6 +1,6 @@
 // handsteady train --config FILE.json --out model.hsm [--resume ckpt] [--epochs N] [--threads N]
-// Compiled into the CLI only when libtorch is found (training/CMakeLists.txt).
-#include "../../cli/commands.hpp"
+// Compiled into the CLI only when libtorch is found (hs_train exists: cli/CMakeLists.txt).
+#include "commands.hpp"
 
 #include "trainer.hpp"
 
