@@ -131,7 +131,7 @@ TEST_CASE("tracker filter: first answer is the runtime's (weight 0), blends in, 
   CHECK((out.pose - q).norm() < 1e-9);
 }
 
-TEST_CASE("tracker filter: answers ahead only as far as the path reaches, older times from the history") {
+TEST_CASE("tracker filter: answers ahead only as far as the path reaches, older times from the history, and says how it answered") {
   auto f = one_euro_filter(Execution::Inline);
   Answer out;
   XrTime t = 1'000'000'000;
@@ -140,9 +140,15 @@ TEST_CASE("tracker filter: answers ahead only as far as the path reaches, older 
     REQUIRE(f->update(t, &p, t, out));
   }
   const XrTime newest = t - kPeriod;
+  CHECK(f->update(newest, nullptr, newest, out));
+  CHECK(out.how == hs::TimeAnswer::Exact);
   CHECK(f->update(newest, nullptr, newest + 50'000'000, out));
+  CHECK(out.how == hs::TimeAnswer::Predicted);
   CHECK_FALSE(f->update(newest, nullptr, newest + 500'000'000, out));  // 0.5 s ahead: pass through
   CHECK(f->update(newest, nullptr, newest - 5 * kPeriod, out));         // in the history
+  CHECK(out.how == hs::TimeAnswer::Exact);                             // at a kept sample time
+  CHECK(f->update(newest, nullptr, newest - 5 * kPeriod - kPeriod / 2, out));
+  CHECK(out.how == hs::TimeAnswer::Interpolated);
   CHECK_FALSE(f->update(newest, nullptr, newest - 60 * kPeriod, out));  // older than the history
   CHECK_FALSE(f->update(newest, nullptr, 0, out));
   CHECK_FALSE(f->update(newest, nullptr, std::numeric_limits<XrTime>::max(), out));

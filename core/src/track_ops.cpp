@@ -1,7 +1,5 @@
-// Interpolation, resampling, mirroring and hand-size normalisation of tracks.
+// Mirroring and hand-size normalisation of tracks.
 #include "handsteady/track_ops.hpp"
-
-#include "handsteady/time_series.hpp"
 
 #include <fmt/format.h>
 
@@ -10,59 +8,6 @@
 #include <stdexcept>
 
 namespace hs {
-
-Pose interpolate_pose(const HandSeries& series, double t, double max_gap_s) {
-  if (series.empty() || !std::isfinite(t) || t < series.t.front() || t > series.t.back()) return untracked_pose();
-  // First row with time >= t.
-  const auto it = std::lower_bound(series.t.begin(), series.t.end(), t);
-  const auto i = static_cast<size_t>(it - series.t.begin());
-  if (series.t[i] == t) return series.pos[i];
-  // Here 0 < i < size: t lies strictly between rows i-1 and i.
-  const double t0 = series.t[i - 1], t1 = series.t[i];
-  if (t1 - t0 > max_gap_s) return untracked_pose();
-  Pose out;
-  lerp_pose(series.pos[i - 1], series.pos[i], (t - t0) / (t1 - t0), out);
-  return out;
-}
-
-HandSeries resample_series(const HandSeries& series, double rate_hz, double max_gap_s) {
-  if (!(rate_hz > 0.0) || !std::isfinite(rate_hz)) throw std::invalid_argument("resample: rate_hz must be positive");
-  HandSeries out;
-  if (series.empty()) return out;
-  const double first = series.t.front(), last = series.t.back();
-  // Grid points k / rate within [first, last]; a tolerance absorbs rounding of times
-  // that are themselves on the grid (e.g. 0.1 * 3 vs 0.3).
-  constexpr double kTol = 1e-9;
-  const auto k0 = static_cast<long long>(std::ceil(first * rate_hz - kTol));
-  const auto k1 = static_cast<long long>(std::floor(last * rate_hz + kTol));
-  if (k1 >= k0) {
-    out.t.reserve(static_cast<size_t>(k1 - k0 + 1));
-    out.pos.reserve(static_cast<size_t>(k1 - k0 + 1));
-  }
-  for (long long k = k0; k <= k1; ++k) {
-    const double tk = static_cast<double>(k) / rate_hz;
-    // Evaluate within the span even when tk is off by rounding.
-    Pose p = interpolate_pose(series, std::clamp(tk, first, last), max_gap_s);
-    // A grid point within rounding of a row takes that row exactly.
-    const auto it = std::lower_bound(series.t.begin(), series.t.end(), tk - kTol);
-    if (it != series.t.end() && std::abs(*it - tk) <= kTol)
-      p = series.pos[static_cast<size_t>(it - series.t.begin())];
-    out.t.push_back(tk);
-    out.pos.push_back(p);
-  }
-  return out;
-}
-
-Track resample_track(const Track& track, double rate_hz, double max_gap_s) {
-  Track out;
-  out.header_lines = track.header_lines;
-  for (Hand h : {Hand::Left, Hand::Right}) {
-    const HandSeries s = hand_series(track, h);
-    if (!s.empty()) add_hand_series(out, h, resample_series(s, rate_hz, max_gap_s));
-  }
-  out.set_meta("rate_hz", fmt::format("{:g}", rate_hz));
-  return out;
-}
 
 Pose mirror_pose(const Pose& p) {
   Pose m = p;

@@ -272,6 +272,7 @@ bool TrackerFilter::answer(XrTime q, const Sample* pending, Answer& out) const n
   if (!p.valid || q <= 0) return false;
   if (q >= p.t0) {
     if (!p.path_at(q, max_ahead_ns_, out.pose)) return false;
+    out.how = q == p.t0 ? TimeAnswer::Exact : TimeAnswer::Predicted;
     Pose pred;
     if (pending && pending->t > p.t0 && p.path_at(pending->t, max_ahead_ns_, pred)) {
       // A sample from a hand somewhere else (re-acquired, jumped): the published state is
@@ -284,7 +285,8 @@ bool TrackerFilter::answer(XrTime q, const Sample* pending, Answer& out) const n
       out.corrected = true;
     }
   } else {
-    if (p.hist.at(q, out.pose) == TimeAnswer::None) return false;
+    out.how = p.hist.at(q, out.pose);
+    if (out.how == TimeAnswer::None) return false;
   }
   out.velocity = p.velocity;
   out.centre = p.centre;

@@ -54,6 +54,9 @@ struct Answer {
   // (re)start so that the first answers are the runtime's and there is no transient.
   double weight = 0.0;
   bool corrected = false;  // moved by the innovation of a sample the engine has not processed yet
+  // Exact: the estimate at the newest processed sample or a kept one; Interpolated: between
+  // kept ones; Predicted: along the published path ahead.
+  TimeAnswer how = TimeAnswer::None;
   // The median joint of the engine's newest input (world): where the engine's hand is.
   Eigen::Vector3d centre = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
 };

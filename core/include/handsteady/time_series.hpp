@@ -4,8 +4,9 @@
 // path of points one period apart ([denoised, predicted...]) at any time, and a
 // fixed-size history that answers a time exactly, by interpolation, or not at all
 // (Monado's m_relation_history is the pattern). How long a gap may be bridged: gap_policy.hpp.
-// Users: track_ops (interpolate_pose, resampling), the Multi-STGAE adapter (grid frames,
+// Users: the metrics, training and replay (interpolate_pose, resampling), the Multi-STGAE adapter (grid frames,
 // path answers), its window mode, the layer's published estimates.
+#include "handsteady/gap_policy.hpp"
 #include "handsteady/track.hpp"
 
 #include <algorithm>
@@ -128,5 +129,16 @@ class PoseHistory {
   std::array<Pose, N> pose_{};
   int head_ = N - 1, count_ = 0;
 };
+
+// A hand over time (HandSeries), with the gap policy explicit.
+// Linear interpolation of one hand at time t. A joint is tracked in the result only
+// when it is tracked in both bracketing rows and they are at most max_gap_s apart
+// (at the exact time of a row, that row's value). Outside [t0, tN]: untracked.
+Pose interpolate_pose(const HandSeries& series, double t, double max_gap_s = kInterpolateMaxGapS);
+
+// Each hand resampled on a fixed grid k/rate_hz covering its time span; joints that
+// cannot be interpolated (gaps > max_gap_s) stay untracked. Metadata kept, rate_hz set.
+HandSeries resample_series(const HandSeries& series, double rate_hz, double max_gap_s = kInterpolateMaxGapS);
+Track resample_track(const Track& track, double rate_hz, double max_gap_s = kInterpolateMaxGapS);
 
 }  // namespace hs

@@ -1,20 +1,10 @@
 #pragma once
-// Operations on tracks used by training, the CLI and the layer: interpolation,
-// resampling to a fixed rate, left<->right mirroring, hand-size normalisation.
-#include "handsteady/gap_policy.hpp"
+// Operations on tracks used by training, the CLI and the layer: left<->right mirroring,
+// hand-size normalisation; interpolation and resampling live in time_series.hpp.
+#include "handsteady/time_series.hpp"
 #include "handsteady/track.hpp"
 
 namespace hs {
-
-// Linear interpolation of one hand at time t. A joint is tracked in the result only
-// when it is tracked in both bracketing rows and they are at most max_gap_s apart
-// (at the exact time of a row, that row's value). Outside [t0, tN]: untracked.
-Pose interpolate_pose(const HandSeries& series, double t, double max_gap_s = kInterpolateMaxGapS);
-
-// Each hand resampled on a fixed grid k/rate_hz covering its time span; joints that
-// cannot be interpolated (gaps > max_gap_s) stay untracked. Metadata kept, rate_hz set.
-HandSeries resample_series(const HandSeries& series, double rate_hz, double max_gap_s = kInterpolateMaxGapS);
-Track resample_track(const Track& track, double rate_hz, double max_gap_s = kInterpolateMaxGapS);
 
 // Mirror across the YZ plane (x -> -x) and swap left/right; mirror_track toggles the
 // "mirrored: yes|no" metadata.
