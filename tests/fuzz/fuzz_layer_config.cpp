@@ -18,8 +18,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       std::string_view(reinterpret_cast<const char*>(data), size), "fuzz.json", warnings);
   // The documented ranges hold whatever the text says (bad values keep the defaults).
   auto horizon_ok = [](std::int64_t ns) { return ns >= 0 && ns <= 500'000'000; };
-  bool ok = horizon_ok(c.horizon_ns) && horizon_ok(c.max_horizon_ns) && c.stgae_phases >= 0 &&
-            c.stgae_phases <= hs::kStgaeMaxPhases && !c.model;
+  bool ok = horizon_ok(c.horizon_ns) && horizon_ok(c.max_horizon_ns) && c.filter.stgae.phases >= 0 &&
+            c.filter.stgae.phases <= hs::kStgaeMaxPhases && !c.filter.stgae.model;
   for (const auto& h : c.hands) ok = ok && horizon_ok(h.horizon_ns) && h.smoothing >= 0.0 && h.smoothing <= 1.0;
   if (!ok) __builtin_trap();
   return 0;
