@@ -89,17 +89,6 @@ bool window_mean(StgaeTimeMean mean, int T, int L, int t, const Mat<S>& items, C
 
 }  // namespace
 
-void check_node_weights(const StgaeNode& node, const StgaeWeights& weights) {
-  for (const TensorSpec& s : node.tensors) {
-    const auto it = weights.tensors.find(s.name);
-    if (it == weights.tensors.end())
-      throw InputError(SourceLocation{"", 0, s.name}, "missing tensor (expected shape " + shape_text(s.shape) + ")");
-    if (it->second.shape != s.shape || it->second.data.size() != s.numel())
-      throw InputError(SourceLocation{"", 0, s.name},
-                       "wrong shape: expected " + shape_text(s.shape) + ", got " + shape_text(it->second.shape));
-  }
-}
-
 // ---------------- MeanRing ----------------
 
 template <class S>
@@ -131,7 +120,7 @@ void MeanRing<S>::push_done(long t) noexcept {
 
 template <class S>
 BlockLayer<S>::BlockLayer(const StgaeConfig& c, const StgaeNode& node, const StgaeWeights& w) : node_(node) {
-  check_node_weights(node, w);
+  check_node_tensors(node, w);
   const std::string& p = node.prefix;
   const int N = c.joint_count(), cin = node.c_in, cout = node.c_out, kt = node.kernel;
   n_ = N;
@@ -343,7 +332,7 @@ void BlockLayer<S>::step(State& st, const Mat<S>& x, long t) const noexcept {
 
 template <class S>
 GateLayer<S>::GateLayer(const StgaeConfig& c, const StgaeNode& node, const StgaeWeights& w) : node_(node) {
-  check_node_weights(node, w);
+  check_node_tensors(node, w);
   const std::string& g = node.prefix;
   n_ = c.joint_count();
   T_ = c.window;
@@ -435,7 +424,7 @@ void GateLayer<S>::step(State& st, const Mat<S>& x, long t) const noexcept {
 
 template <class S>
 LiftLayer<S>::LiftLayer(const StgaeConfig& c, const StgaeNode& node, const StgaeWeights& w) : node_(node) {
-  check_node_weights(node, w);
+  check_node_tensors(node, w);
   n_ = c.joint_count();
   c_ = node.c_in;
   dt_ = node.c_out / node.c_in;

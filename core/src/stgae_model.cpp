@@ -217,31 +217,19 @@ std::string shape_text(const std::vector<int>& s) {
   return t + "]";
 }
 
-namespace {
-bool ends_with(std::string_view s, std::string_view suffix) {
-  return s.size() >= suffix.size() && s.substr(s.size() - suffix.size()) == suffix;
-}
-}  // namespace
-
 void check_stgae_weights(const StgaeConfig& config, const StgaeWeights& w, const std::string& source) {
-  const auto specs = stgae_tensor_specs(config);
   std::set<std::string, std::less<>> expected;
-  for (const auto& s : specs) {
-    expected.insert(s.name);
-    auto it = w.tensors.find(s.name);
-    if (it == w.tensors.end())
-      throw InputError(SourceLocation{source, 0, s.name}, "missing tensor (expected shape " + shape_text(s.shape) + ")");
-    const Tensor& t = it->second;
-    if (t.shape != s.shape)
-      throw InputError(SourceLocation{source, 0, s.name},
-                       "wrong shape: expected " + shape_text(s.shape) + ", got " + shape_text(t.shape));
-    if (t.data.size() != s.numel())
-      throw InputError(SourceLocation{source, 0, s.name}, "data size does not match its shape");
-    for (float v : t.data)
-      if (!std::isfinite(v)) throw InputError(SourceLocation{source, 0, s.name}, "non-finite value");
-    if (ends_with(s.name, "running_var"))
+  for (const StgaeNode& node : stgae_topology(config)) {
+    check_node_tensors(node, w, source);
+    for (const TensorSpec& s : node.tensors) {  // present, of their shape: now their values
+      expected.insert(s.name);
+      const Tensor& t = w.tensors.find(s.name)->second;
       for (float v : t.data)
-        if (v < 0.0f) throw InputError(SourceLocation{source, 0, s.name}, "negative running variance");
+        if (!std::isfinite(v)) throw InputError(SourceLocation{source, 0, s.name}, "non-finite value");
+      if (s.name.ends_with("running_var"))
+        for (float v : t.data)
+          if (v < 0.0f) throw InputError(SourceLocation{source, 0, s.name}, "negative running variance");
+    }
   }
   for (const auto& [name, t] : w.tensors)
     if (!expected.contains(name))
@@ -262,11 +250,11 @@ StgaeWeights random_stgae_weights(const StgaeConfig& config, std::uint64_t seed,
     for (size_t i = 1; i < s.shape.size(); ++i) fan_in *= s.shape[i];
     for (float& v : t.data) {
       double x = u(rng);
-      if (ends_with(n, "bn.weight")) x = 1.0 + 0.2 * x;
-      else if (ends_with(n, "bn.bias") || ends_with(n, "running_mean")) x = 0.1 * x;
-      else if (ends_with(n, "running_var")) x = 1.0 + 0.5 * x;
-      else if (ends_with(n, ".B")) x = 0.1 * x;
-      else if (ends_with(n, ".bias")) x = 0.1 * x;
+      if (n.ends_with("bn.weight")) x = 1.0 + 0.2 * x;
+      else if (n.ends_with("bn.bias") || n.ends_with("running_mean")) x = 0.1 * x;
+      else if (n.ends_with("running_var")) x = 1.0 + 0.5 * x;
+      else if (n.ends_with(".B")) x = 0.1 * x;
+      else if (n.ends_with(".bias")) x = 0.1 * x;
       else x = scale * x / std::sqrt(fan_in);
       v = static_cast<float>(x);
     }

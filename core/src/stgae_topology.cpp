@@ -122,6 +122,20 @@ std::vector<StgaeNode> stgae_topology(const StgaeConfig& c) {
   return nodes;
 }
 
+void check_node_tensors(const StgaeNode& node, const StgaeWeights& weights, const std::string& source) {
+  for (const TensorSpec& s : node.tensors) {
+    const auto it = weights.tensors.find(s.name);
+    if (it == weights.tensors.end())
+      throw InputError(SourceLocation{source, 0, s.name}, "missing tensor (expected shape " + shape_text(s.shape) + ")");
+    const Tensor& t = it->second;
+    if (t.shape != s.shape)
+      throw InputError(SourceLocation{source, 0, s.name},
+                       "wrong shape: expected " + shape_text(s.shape) + ", got " + shape_text(t.shape));
+    if (t.data.size() != s.numel())
+      throw InputError(SourceLocation{source, 0, s.name}, "data size does not match its shape");
+  }
+}
+
 std::int64_t StgaeNode::macs(const StgaeConfig& c, std::int64_t L) const {
   const std::int64_t n = c.joint_count();
   const std::int64_t f_in = span == StgaeFrameSpan::Input ? L : span == StgaeFrameSpan::Newest ? 1 : c.horizon;

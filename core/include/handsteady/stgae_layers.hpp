@@ -3,7 +3,8 @@
 // (stgae_topology.hpp): STGCB block, gate, prediction lift. Each holds immutable prepared
 // weights (BN folded; shared by any number of streams) and declares a State, one per
 // stream, so that
-//   - the constructor loads its node's tensors and checks their names and shapes,
+//   - the constructor loads its node's tensors and checks their names and shapes
+//     (check_node_tensors, stgae_topology.hpp),
 //   - node() gives its tensors and macs() its cost,
 //   - forward() computes the layer over a window (activations (L*N) x C, row t*N + v),
 //   - step() computes the newest frame of a causal stream (N x C) from the State;
@@ -28,10 +29,6 @@ template <class S>
 using RVec = Eigen::Matrix<S, 1, Eigen::Dynamic>;
 template <class S>
 using CVec = Eigen::Matrix<S, Eigen::Dynamic, 1>;
-
-// Throws InputError (field = tensor name) when a tensor of the node is missing or has
-// another shape.
-void check_node_weights(const StgaeNode& node, const StgaeWeights& weights);
 
 // The time mean over W(t) of a per-frame item (one column per frame) in a stream: the
 // last T items in a ring and their running sum in double (add the new column, subtract

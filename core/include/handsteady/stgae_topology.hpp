@@ -55,4 +55,8 @@ struct StgaeNode {
 // Every node, in file (tensor) order; validates the configuration (InputError).
 std::vector<StgaeNode> stgae_topology(const StgaeConfig& config);
 
+// Throws InputError (file = source, field = tensor name) when a tensor of the node is
+// missing, has another shape, or holds another number of values than its shape says.
+void check_node_tensors(const StgaeNode& node, const StgaeWeights& weights, const std::string& source = "");
+
 }  // namespace hs
