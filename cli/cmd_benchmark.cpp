@@ -69,9 +69,13 @@ void run_benchmark(const BenchmarkOptions& o, const std::string& command) {
     model_files.emplace_back(spec.substr(0, eq), spec.substr(eq + 1));
   }
   if (!o.no_default_model) {
-    const auto lookup = lookup_default_model({installed_models_dir_for_executable()});
-    if (!lookup.found.empty()) model_files.emplace_back("multistgae", lookup.found);
-    else report.notes.push_back("no shipped model found (" + lookup.describe_tried() + ")");
+    // The shipped models of every family, so that one run compares them all.
+    for (const auto& [label, file] : {std::pair{"multistgae", kDefaultModelFile}, std::pair{"stgae", kStgaeModelFile},
+                                      std::pair{"dgn", kDgnModelFile}}) {
+      const auto lookup = lookup_default_model({installed_models_dir_for_executable()}, file);
+      if (!lookup.found.empty()) model_files.emplace_back(label, lookup.found);
+      else report.notes.push_back(std::string("no shipped ") + label + " model found (" + lookup.describe_tried() + ")");
+    }
   }
   bench::tune_oneeuro(sets, o.run, report);
   auto methods = bench::classical_methods(report.tuned);
@@ -80,7 +84,7 @@ void run_benchmark(const BenchmarkOptions& o, const std::string& command) {
     if (model->config.padding != StgaePadding::Causal)
       throw InputError({file.string(), 0, "--model"}, "a centred model cannot stream; the benchmark runs causally");
     FilterConfig c;
-    c.method = FilterMethod::Stgae;
+    c.method = network_method(*model);
     c.stgae.model = model;
     c.stgae.source = file.string();
     methods.push_back({label, [c](const std::string&) { return make_filter(c); }, true});
@@ -105,7 +109,7 @@ void setup_benchmark(CLI::App& app) {
   sub->add_option("--data", o->data, "The shared recordings folder")->capture_default_str();
   sub->add_option("--out", o->out, "Folder for benchmark.md, benchmark.json, curve.csv")->required();
   sub->add_option("--model", o->models, "LABEL=FILE.hsm, a causal model to score (repeatable)");
-  sub->add_flag("--no-default-model", o->no_default_model, "Do not add the shipped model (label multistgae)");
+  sub->add_flag("--no-default-model", o->no_default_model, "Do not add the shipped models (labels multistgae, stgae, dgn)");
   sub->add_flag("--unbounded", o->unbounded,
                 "Also score each model without its trust region (label LABEL-unbounded; docs/STGAE.md)");
   sub->add_flag("--quick", o->run.quick, "The CI subset: ~20 s of each set, one strength per family");

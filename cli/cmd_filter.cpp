@@ -73,9 +73,13 @@ std::vector<std::string> method_names() {
 
 // Loads the model once (per run, shared by both hands): --model, else the shipped one.
 void load_stgae(FilterConfig& c, const std::string& model_file, double horizon_ms) {
-  const std::filesystem::path file = model_file.empty() ? default_model_path() : std::filesystem::path(model_file);
+  const std::filesystem::path file =
+      model_file.empty() ? default_model_path(default_model_file(c.method)) : std::filesystem::path(model_file);
   c.stgae.model = load_hsm(file);  // InputError naming the file for any defect
   c.stgae.source = file.string();
+  if (network_method(*c.stgae.model) != c.method)
+    throw InputError({c.stgae.source, 0, "--model"},
+                     fmt::format("this is a {0} model: run it with --method {0}", filter_method_name(network_method(*c.stgae.model))));
   const bool causal = c.stgae.model->config.padding == StgaePadding::Causal;
   if (c.stgae.offline && causal) {
     throw InputError({c.stgae.source, 0, "--offline"},
@@ -115,19 +119,19 @@ void map_hands(Track& track, SeriesFn&& series_fn) {
 
 void run_filter(const FilterOptions& o) {
   FilterConfig config = filter_config(o);
-  const bool stgae = config.method == FilterMethod::Stgae;
+  const bool stgae = is_network(config.method);  // stgae or dgn
   if (!(o.horizon_ms >= 0.0)) {
     throw InputError({"", 0, "--horizon-ms"}, fmt::format("horizon must be >= 0 ms, got {}", o.horizon_ms));
   }
-  if (o.offline && !stgae) throw InputError({"", 0, "--offline"}, "--offline needs --method stgae");
+  if (o.offline && !stgae) throw InputError({"", 0, "--offline"}, "--offline needs --method stgae or dgn");
   if (o.phases != 0 && !stgae) {
-    throw InputError({"", 0, "--phases"}, fmt::format("--phases is for --method stgae, not {}", o.method));
+    throw InputError({"", 0, "--phases"}, fmt::format("--phases is for --method stgae or dgn, not {}", o.method));
   }
   if (o.unbounded && (!stgae || o.offline)) {
-    throw InputError({"", 0, "--unbounded"}, "--unbounded is for --method stgae streaming");
+    throw InputError({"", 0, "--unbounded"}, "--unbounded is for --method stgae or dgn streaming");
   }
   if (!o.model_file.empty() && !stgae) {
-    throw InputError({"", 0, "--model"}, fmt::format("--model is for --method stgae, not {}", o.method));
+    throw InputError({"", 0, "--model"}, fmt::format("--model is for --method stgae or dgn, not {}", o.method));
   }
   // Load resources and validate the parameters before reading a possibly large file.
   if (stgae) load_stgae(config, o.model_file, o.horizon_ms);
@@ -172,8 +176,9 @@ void setup_filter(CLI::App& app) {
   sub->add_option("--meas-sd-mm", o->meas_sd_mm, "Kalman measurement noise sd (mm)")->capture_default_str();
   sub->add_option("--accel-psd", o->accel_psd, "Kalman white-acceleration PSD (m^2/s^3)")->capture_default_str();
   sub->add_option("--model", o->model_file,
-                  fmt::format("Multi-STGAE model (.hsm); default: ${}, else the shipped {}", kModelEnvVar,
-                              kDefaultModelFile));
+                  fmt::format("network model (.hsm) of the method's family; default: ${}, else the shipped {} "
+                              "(stgae) or {} (dgn)",
+                              kModelEnvVar, kDefaultModelFile, kDgnModelFile));
   sub->add_option("--phases", o->phases,
                   "Multi-STGAE: interleaved streams for input faster than the model (0 = input rate / model rate)")
       ->capture_default_str();

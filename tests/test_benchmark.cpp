@@ -230,6 +230,18 @@ TEST_CASE("the grid on synthetic motion: noise is what it says, filters are scor
   const auto j = nlohmann::json::parse(bench::report_json(r, o));
   CHECK(j["results"].size() == r.results.size());
   CHECK(bench::curve_csv(r).find("oneeuro-sweep") != std::string::npos);
+  // Occluded joints: outliers jump 10-50 mm, so raw's error on them is large, on no other
+  // joint of those rows; white noise of 1.5 mm displaces (almost) no joint by 10 mm.
+  const auto* raw_out = find("outliers", "raw");
+  const auto* offset_out = find("outliers", "offset");
+  REQUIRE(raw_out);
+  REQUIRE(offset_out);
+  REQUIRE(raw_out->occluded.joint_samples > 0);
+  CHECK(raw_out->occluded.mpjpe_mm > 10.0);
+  CHECK(raw_out->occluded.mpjpe_mm > 3.0 * raw_out->at[0].mpjpe_mm);
+  CHECK(offset_out->occluded.joint_samples == raw_out->occluded.joint_samples);
+  CHECK(raw->occluded.joint_samples < raw->at[0].joint_samples / 1000 + 1);
+  CHECK(md.find("## Occluded joints") != std::string::npos);
 }
 
 TEST_CASE("handsteady benchmark --quick on the shared recordings writes the report") {

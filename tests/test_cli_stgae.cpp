@@ -150,7 +150,7 @@ void check_structure(const hs::Track& in, const hs::Track& out, double max_dev_m
 }
 
 struct Models {
-  fs::path dir, random_causal, zero_causal, random_centred, zero_centred;
+  fs::path dir, random_causal, zero_causal, random_centred, zero_centred, random_dgn;
 };
 const Models& models() {
   static const Models m = [] {
@@ -162,6 +162,10 @@ const Models& models() {
     r.zero_causal = write_model(r.dir / "zero_causal.hsm", causal, zero_weights(causal));
     r.random_centred = write_model(r.dir / "random_centred.hsm", centred, hs::random_stgae_weights(centred, 19, 1.0));
     r.zero_centred = write_model(r.dir / "zero_centred.hsm", centred, zero_weights(centred));
+    auto dgn = causal;
+    dgn.family = hs::StgaeFamily::Dgn;
+    dgn.gates = false;
+    r.random_dgn = write_model(r.dir / "random_dgn.hsm", dgn, hs::random_stgae_weights(dgn, 23, 1.0));
     return r;
   }();
   return m;
@@ -288,6 +292,27 @@ TEST_CASE("stgae is causal: a truncated input gives a prefix of the output") {
         CHECK(((std::isnan(x) && std::isnan(y)) || x == y));
       }
   }
+  fs::remove_all(dir);
+}
+
+TEST_CASE("dgn streams like stgae, and each method refuses the other family's model naming the file and the method to use") {
+  const fs::path dir = hs::test::temp_dir("cli_dgn");
+  const hs::Track built = ramp_track(regular_times(90, 1.0), 0.5, 0.6, 5);
+  hs::write_track_csv(built, dir / "in.csv");
+  const hs::Track in = hs::read_track_csv(dir / "in.csv");
+  const hs::Track out = run_ok(in, dir, "--method dgn --model " + quoted(models().random_dgn));
+  check_structure(in, out, 0.5);
+  CHECK(out.meta("filter").value_or("").find("dgn horizon_ms=0 model=") == 0);
+  const hs::Track ahead = run_ok(in, dir, "--method dgn --horizon-ms 50 --model " + quoted(models().random_dgn));
+  check_structure(in, ahead, 0.5);
+  CHECK((ahead.rows[40].pos - out.rows[40].pos).norm() > 1e-6);
+  CHECK(filter_cli(dir / "in.csv", dir / "out.csv", "--method stgae --model " + quoted(models().random_dgn),
+                   dir / "err.txt") == 2);
+  CHECK(slurp(dir / "err.txt").find(models().random_dgn.string()) != std::string::npos);
+  CHECK(slurp(dir / "err.txt").find("--method dgn") != std::string::npos);
+  CHECK(filter_cli(dir / "in.csv", dir / "out.csv", "--method dgn --model " + quoted(models().random_causal),
+                   dir / "err.txt") == 2);
+  CHECK(slurp(dir / "err.txt").find("--method stgae") != std::string::npos);
   fs::remove_all(dir);
 }
 

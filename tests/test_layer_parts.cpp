@@ -2,6 +2,7 @@
 // runtime time-semantics probe, the per-tracker filter state (restart rules, blend-in,
 // the worker hand-off) and the pure joint rewrite.
 #include "handsteady/filters.hpp"
+#include "handsteady/hsm_format.hpp"
 #include "joint_gate.hpp"
 #include "joint_rewrite.hpp"
 #include "layer_config.hpp"
@@ -283,6 +284,41 @@ TEST_CASE("repair: non-finite or impossible velocities lose their valid bit") {
   CHECK((vel[4].velocityFlags & XR_SPACE_VELOCITY_ANGULAR_VALID_BIT) == 0);
   CHECK((vel[4].velocityFlags & XR_SPACE_VELOCITY_LINEAR_VALID_BIT) != 0);
   CHECK(vel[5].velocityFlags == (XR_SPACE_VELOCITY_LINEAR_VALID_BIT | XR_SPACE_VELOCITY_ANGULAR_VALID_BIT));
+}
+
+TEST_CASE("configuration: HANDSTEADY_METHOD=dgn loads a DGN model, and a model of the other family falls back with an error") {
+  const auto dir = hs::test::temp_dir("layer_dgn_config");
+  hs::StgaeConfig c;
+  c.window = 4;
+  c.horizon = 2;
+  c.encoder_channels = {6, 8};
+  c.denoise_decoder_channels = {8, 3};
+  c.predict_decoder_channels = {8, 3};
+  c.temporal_kernel = 3;
+  auto save = [&](const hs::StgaeConfig& cfg, const char* name) {
+    const auto w = hs::random_stgae_weights(cfg, 3, 1.0);
+    hs::save_hsm(dir / name, cfg, w, hs::make_stgae_reference(cfg, w, hs::synthetic_hand_input(cfg, cfg.window, 1)));
+    return dir / name;
+  };
+  const auto stgae = save(c, "stgae.hsm");
+  c.family = hs::StgaeFamily::Dgn;
+  c.gates = false;
+  const auto dgn = save(c, "dgn.hsm");
+  for (const char* v : {"HANDSTEADY_CONFIG", "HANDSTEADY_MODE", "HANDSTEADY_STGAE_PHASES"}) ::unsetenv(v);
+  ::setenv("HANDSTEADY_METHOD", "dgn", 1);
+  ::setenv("HANDSTEADY_MODEL", dgn.c_str(), 1);
+  hs::layer::LoadedConfig loaded = hs::layer::load_layer_config();
+  CHECK(loaded.config.filter.method == hs::FilterMethod::Dgn);
+  REQUIRE(loaded.config.filter.stgae.model != nullptr);
+  CHECK(loaded.config.filter.stgae.model->config.family == hs::StgaeFamily::Dgn);
+  CHECK(std::string(hs::layer::engine_name(loaded.config)) == "dgn");
+  ::setenv("HANDSTEADY_MODEL", stgae.c_str(), 1);  // a Multi-STGAE model for method dgn
+  loaded = hs::layer::load_layer_config();
+  CHECK_FALSE(hs::is_network(loaded.config.filter.method));
+  REQUIRE_FALSE(loaded.engine_messages.empty());
+  CHECK(loaded.engine_messages.back().text.find("dgn") != std::string::npos);
+  for (const char* v : {"HANDSTEADY_METHOD", "HANDSTEADY_MODEL"}) ::unsetenv(v);
+  std::filesystem::remove_all(dir);
 }
 
 TEST_CASE("configuration: read_layer_config applies the file and the environment and loads no model, as an app beside the layer reads it") {

@@ -110,6 +110,24 @@ StgaeConfig small_causal(hs::StgaeCVariant cv = hs::StgaeCVariant::Dot, bool gat
   return c;
 }
 
+// A small DGN (dgn_layers.hpp) of the given temporal module and padding.
+StgaeConfig small_dgn(hs::DgnTemporal temporal, bool predict = true, hs::StgaePadding pad = hs::StgaePadding::Causal) {
+  StgaeConfig c;
+  c.family = hs::StgaeFamily::Dgn;
+  c.gates = false;
+  c.window = 4;
+  c.horizon = 2;
+  c.encoder_channels = {6, 6, 8};
+  c.denoise_decoder_channels = {8, 6, 3};
+  c.predict_decoder_channels = {8, 6, 3};
+  c.temporal_kernel = 3;
+  c.temporal = temporal;
+  c.temporal_layers = 2;
+  c.padding = pad;
+  c.predict = predict;
+  return c;
+}
+
 template <class S>
 hs::StgaeFrames<S> frames_from(const std::vector<float>& v, int n) {
   const auto L = static_cast<Eigen::Index>(v.size()) / (3 * n);
@@ -186,6 +204,60 @@ TEST_CASE("streaming equals window mode on small causal models") {
     for (int t = 0; t < 5; ++t) stream.push(std::span<const float>(input.data() + static_cast<size_t>(t * 3 * n), static_cast<size_t>(3 * n)));
     CHECK(max_abs_diff(stream.denoised(), all.denoised.row(4).data()) <= 1e-5);
   }
+}
+
+TEST_CASE("DGN: streaming equals window mode (temporal conv and LSTM), also after reset") {
+  for (const auto temporal : {hs::DgnTemporal::Tcn, hs::DgnTemporal::Lstm})
+    for (const bool predict : {true, false}) {
+      const auto c = small_dgn(temporal, predict);
+      CAPTURE(hs::to_json(c));
+      const auto net = hs::make_stgae_net<double>(c, hs::random_stgae_weights(c, 9, 1.5));
+      const int n = c.joint_count();
+      const int L = 13;
+      const auto input = holey_input(c, L, 3);
+      const auto all = hs::stgae_window_forward(*net, frames_from<double>(input, n));
+      hs::StgaeStream<double> stream(net);
+      auto frame = [&](int t) {
+        static thread_local std::vector<double> f;
+        f.assign(input.begin() + t * 3 * n, input.begin() + (t + 1) * 3 * n);
+        return std::span<const double>(f);
+      };
+      auto diff = [](std::span<const double> a, const double* b) {
+        double m = 0.0;
+        for (size_t i = 0; i < a.size(); ++i) m = std::max(m, std::abs(a[i] - b[i]));
+        return m;
+      };
+      for (int pass = 0; pass < 2; ++pass) {
+        stream.reset();
+        for (int t = 0; t < L; ++t) {
+          REQUIRE(stream.push(frame(t)));
+          CHECK(diff(stream.denoised(), all.denoised.row(t).data()) <= 1e-12);
+          if (predict && (t == 2 || t == L - 1)) {
+            std::vector<float> prefix(input.begin(), input.begin() + static_cast<std::ptrdiff_t>((t + 1) * 3 * n));
+            const auto part = hs::stgae_window_forward(*net, frames_from<double>(prefix, n));
+            for (int i = 0; i < c.horizon; ++i) CHECK(diff(stream.predicted(i), part.predicted.row(i).data()) <= 1e-12);
+          }
+        }
+      }
+      double moved = 0.0;
+      for (Eigen::Index i = 0; i < all.denoised.size(); ++i)
+        if (std::isfinite(input[static_cast<size_t>(i)]))
+          moved = std::max(moved, std::abs(all.denoised.data()[i] - static_cast<double>(input[static_cast<size_t>(i)])));
+      CHECK(moved > 1e-3);
+    }
+}
+
+TEST_CASE("DGN: the centred model (bidirectional LSTM) runs in window mode only, and its past depends on its future") {
+  const auto c = small_dgn(hs::DgnTemporal::Lstm, true, hs::StgaePadding::Centred);
+  const auto net = hs::make_stgae_net<double>(c, hs::random_stgae_weights(c, 4, 1.5));
+  CHECK_THROWS_AS(hs::StgaeStream<double>{net}, std::invalid_argument);
+  const int n = c.joint_count();
+  const auto input = holey_input(c, 10, 2);
+  const auto all = hs::stgae_window_forward(*net, frames_from<double>(input, n));
+  std::vector<float> prefix(input.begin(), input.begin() + 5 * 3 * n);
+  const auto part = hs::stgae_window_forward(*net, frames_from<double>(prefix, n));
+  CHECK((all.denoised.row(2) - part.denoised.row(2)).cwiseAbs().maxCoeff() > 1e-6);
+  CHECK(all.predicted.rows() == c.horizon);
 }
 
 TEST_CASE("float and double window modes agree (causal and centred)") {
@@ -343,14 +415,20 @@ TEST_CASE("no heap allocation per frame after warm-up") {
   const int n = c.joint_count();
   const auto input = holey_input(c, 40, 4);
   hs::StgaeStream<float> a(net), b(netg);
+  // The DGN streams: temporal conv and LSTM.
+  const auto ct = small_dgn(hs::DgnTemporal::Tcn), cl = small_dgn(hs::DgnTemporal::Lstm);
+  hs::StgaeStream<float> d1(hs::make_stgae_net<float>(ct, hs::random_stgae_weights(ct, 7, 1.0)));
+  hs::StgaeStream<float> d2(hs::make_stgae_net<float>(cl, hs::random_stgae_weights(cl, 8, 1.0)));
   auto frame = [&](int t) { return std::span<const float>(input.data() + static_cast<size_t>(t * 3 * n), static_cast<size_t>(3 * n)); };
-  for (int t = 0; t < 5; ++t) a.push(frame(t)), b.push(frame(t));
+  for (int t = 0; t < 5; ++t) a.push(frame(t)), b.push(frame(t)), d1.push(frame(t)), d2.push(frame(t));
   g_allocations = 0;
   g_counting = true;
   bool ok = true;
-  for (int t = 5; t < 40; ++t) ok = a.push(frame(t)) && b.push(frame(t)) && ok;
+  for (int t = 5; t < 40; ++t) ok = a.push(frame(t)) && b.push(frame(t)) && d1.push(frame(t)) && d2.push(frame(t)) && ok;
   a.reset();
-  ok = a.push(frame(0)) && ok;
+  d1.reset();
+  d2.reset();
+  ok = a.push(frame(0)) && d1.push(frame(0)) && d2.push(frame(0)) && ok;
   g_counting = false;
   CHECK(ok);
   CHECK(g_allocations.load() == 0);

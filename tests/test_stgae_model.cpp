@@ -88,6 +88,25 @@ TEST_CASE("config JSON round trip, defaults and errors") {
   CHECK(err(R"({"skeleton": "paw"})").find("skeleton") != std::string::npos);
   CHECK(err("[1,").find("cfg.json") != std::string::npos);
   CHECK(err(R"({"rate_hz": 4444e4444444})").find("cfg.json") != std::string::npos);  // found by the fuzzer
+  // The DGN family: its own keys, none of Multi-STGAE's attention/gates, a tree skeleton.
+  auto d = small_config();
+  d.family = hs::StgaeFamily::Dgn;
+  d.gates = false;
+  d.temporal = hs::DgnTemporal::Lstm;
+  d.temporal_layers = 3;
+  const auto dback = hs::parse_stgae_config(hs::to_json(d), "d.json");
+  CHECK(dback.family == hs::StgaeFamily::Dgn);
+  CHECK(dback.temporal == hs::DgnTemporal::Lstm);
+  CHECK(dback.temporal_layers == 3);
+  CHECK(hs::to_json(c).find("family") == std::string::npos);  // Multi-STGAE files are unchanged
+  CHECK(err(R"({"family": "dgn", "gates": true})").find("gates") != std::string::npos);
+  CHECK(err(R"({"family": "dgn", "attention": "A"})").find("attention") != std::string::npos);
+  CHECK(err(R"({"temporal": "lstm"})").find("dgn family only") != std::string::npos);
+  CHECK(err(R"({"family": "gcn"})").find("family") != std::string::npos);
+  CHECK(err(R"({"family": "dgn", "temporal": "gru"})").find("temporal") != std::string::npos);
+  CHECK(err(R"({"family": "dgn", "padding": "centred", "temporal": "lstm", "encoder_channels": [6, 7],
+              "denoise_decoder_channels": [7, 3], "predict_decoder_channels": [7, 3]})")
+            .find("even") != std::string::npos);
 }
 
 TEST_CASE("tensor specs: unique names, shapes following the configuration") {
@@ -294,4 +313,15 @@ TEST_CASE("the models shipped in models/ load (checksum and reference pair verif
   const auto y = hs::stgae_window_forward(*centred->net, frames);
   CHECK(y.denoised.allFinite());
   CHECK(y.predicted.rows() == 5);
+  // The denoise-only STGAE and the DGN (models/MODEL.md "STGAE", "DGN").
+  const auto stgae = hs::load_hsm(dir / "handsteady_xr26_stgae.hsm");
+  CHECK(stgae->config.family == hs::StgaeFamily::MultiStgae);
+  CHECK_FALSE(stgae->config.predict);
+  CHECK_FALSE(stgae->config.gates);
+  const auto dgn = hs::load_hsm(dir / "handsteady_xr26_dgn.hsm");
+  CHECK(dgn->config.family == hs::StgaeFamily::Dgn);
+  CHECK(dgn->config.padding == hs::StgaePadding::Causal);
+  CHECK(dgn->config.temporal == hs::DgnTemporal::Tcn);
+  CHECK(dgn->config.encoder_channels == std::vector<int>{6, 24, 32});
+  CHECK(std::filesystem::file_size(dir / "handsteady_xr26_dgn.hsm") <= 5u * 1024 * 1024);
 }

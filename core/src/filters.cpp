@@ -6,6 +6,8 @@
 // push/estimate have no failure path besides rejecting a bad timestamp.
 #include "handsteady/filters.hpp"
 
+#include "handsteady/model_path.hpp"
+
 #include "handsteady/stgae_filter.hpp"
 #include "handsteady/stgae_model.hpp"
 #include "handsteady/stgae_offline.hpp"
@@ -245,7 +247,7 @@ FilterMethod parse_filter_method(std::string_view name) {
   for (FilterMethod m : kFilterMethods) {
     if (name == filter_method_name(m)) return m;
   }
-  throw std::invalid_argument(fmt::format("unknown filter method '{}' (raw, oneeuro, desp, kalman, stgae)", name));
+  throw std::invalid_argument(fmt::format("unknown filter method '{}' (raw, oneeuro, desp, kalman, stgae, dgn)", name));
 }
 
 std::string_view filter_method_name(FilterMethod m) {
@@ -255,8 +257,17 @@ std::string_view filter_method_name(FilterMethod m) {
     case FilterMethod::Desp: return "desp";
     case FilterMethod::Kalman: return "kalman";
     case FilterMethod::Stgae: return "stgae";
+    case FilterMethod::Dgn: return "dgn";
   }
   return "unknown";
+}
+
+std::string_view default_model_file(FilterMethod m) noexcept {
+  return m == FilterMethod::Dgn ? kDgnModelFile : kDefaultModelFile;
+}
+
+FilterMethod network_method(const StgaeModel& model) noexcept {
+  return model.config.family == StgaeFamily::Dgn ? FilterMethod::Dgn : FilterMethod::Stgae;
 }
 
 std::unique_ptr<PoseFilter> make_filter(const FilterConfig& c) {
@@ -291,8 +302,13 @@ std::unique_ptr<PoseFilter> make_filter(const FilterConfig& c) {
       return std::make_unique<KalmanFilter>(p, c.max_gap_s);
     }
     case FilterMethod::Stgae:
+    case FilterMethod::Dgn:
       if (c.stgae.offline)
-        throw std::invalid_argument("Multi-STGAE window mode (offline) runs over a whole recording, not as a streaming filter");
+        throw std::invalid_argument("network window mode (offline) runs over a whole recording, not as a streaming filter");
+      if (c.stgae.model && network_method(*c.stgae.model) != c.method)
+        throw std::invalid_argument(fmt::format("method {} needs a model of its family; {} is a {} model",
+                                                filter_method_name(c.method), c.stgae.source,
+                                                filter_method_name(network_method(*c.stgae.model))));
       return make_stgae_filter(c.stgae.model, 0.0, c.stgae.phases, c.stgae.bounded);
   }
   throw std::invalid_argument("unknown filter method");
@@ -315,7 +331,8 @@ std::string filter_params_summary(const FilterConfig& c) {
       s = fmt::format("meas_sd_mm={} accel_psd={} init_speed_sd_mps={} ", c.kalman.meas_sd_m * 1e3,
                       c.kalman.accel_psd, c.kalman.init_speed_sd_mps);
       break;
-    case FilterMethod::Stgae: {
+    case FilterMethod::Stgae:
+    case FilterMethod::Dgn: {
       // The network forgets after kModelResetGapS, whatever max_gap_s says: no max_gap_ms.
       const StgaeParams& p = c.stgae;
       if (!p.model) return fmt::format("model={} (not loaded)", p.source);
@@ -347,8 +364,8 @@ std::vector<HandSeries> filter_series(PoseFilter& filter, const HandSeries& seri
 }
 
 HandSeries filter_series_with(const FilterConfig& config, const HandSeries& series, double horizon_s) {
-  if (config.method == FilterMethod::Stgae && config.stgae.offline) {
-    if (!config.stgae.model) throw std::invalid_argument("Multi-STGAE: no model");
+  if (is_network(config.method) && config.stgae.offline) {
+    if (!config.stgae.model) throw std::invalid_argument("network method: no model");
     return stgae_offline_series(*config.stgae.model, series, horizon_s);
   }
   const std::unique_ptr<PoseFilter> filter = make_filter(config);

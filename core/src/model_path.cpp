@@ -24,7 +24,7 @@ std::string ModelLookup::describe_tried() const {
   return s.empty() ? std::string("(no candidate)") : s;
 }
 
-ModelLookup lookup_default_model(const std::vector<std::filesystem::path>& installed_dirs) {
+ModelLookup lookup_default_model(const std::vector<std::filesystem::path>& installed_dirs, std::string_view file) {
   ModelLookup r;
   const char* env = std::getenv(std::string(kModelEnvVar).c_str());
   if (env && *env) {
@@ -34,7 +34,7 @@ ModelLookup lookup_default_model(const std::vector<std::filesystem::path>& insta
     return r;
   }
   for (const auto& d : installed_dirs) {
-    if (!d.empty()) r.tried.push_back((d / kDefaultModelFile).lexically_normal());
+    if (!d.empty()) r.tried.push_back((d / file).lexically_normal());
   }
   for (const auto& p : r.tried) {
     if (is_file(p)) {
@@ -56,12 +56,12 @@ std::filesystem::path installed_models_dir_for_executable() {
   return dir.empty() ? dir : dir / ".." / "share" / "handsteady" / "models";
 }
 
-std::filesystem::path default_model_path() {
-  const ModelLookup r = lookup_default_model({installed_models_dir_for_executable()});
+std::filesystem::path default_model_path(std::string_view file) {
+  const ModelLookup r = lookup_default_model({installed_models_dir_for_executable()}, file);
   if (!r.found.empty()) return r.found;
   const std::string what = r.from_env ? std::string("the model named by ") + std::string(kModelEnvVar) +
                                             " does not exist: " + r.describe_tried()
-                                      : "no model given and the shipped model " + std::string(kDefaultModelFile) +
+                                      : "no model given and the shipped model " + std::string(file) +
                                             " was not found; tried: " + r.describe_tried();
   throw InputError({"", 0, "--model"}, what);
 }

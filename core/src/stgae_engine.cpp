@@ -5,6 +5,7 @@
 // the sequence; streaming runs each layer's step() from its per-stream State.
 #include "handsteady/stgae_engine.hpp"
 
+#include "handsteady/dgn_layers.hpp"
 #include "handsteady/skeleton.hpp"
 #include "handsteady/stgae_features.hpp"
 #include "handsteady/stgae_layers.hpp"
@@ -21,8 +22,20 @@ namespace hs {
 using stgae::BlockLayer;
 using stgae::GateLayer;
 using stgae::LiftLayer;
+using dgn::DgnBlockLayer;
+using dgn::DgnLiftLayer;
+using dgn::DgnTemporalLayer;
 template <class S>
 using Mat = stgae::Mat<S>;
+
+// The DGN's layers (dgn_layers.hpp), by section.
+template <class S>
+struct DgnParts {
+  dgn::DgnGraph graph;
+  std::vector<DgnBlockLayer<S>> enc, den, pre;
+  std::vector<DgnTemporalLayer<S>> tv, te;  // joints, bones
+  std::optional<DgnLiftLayer<S>> lift;
+};
 
 template <class S>
 struct StgaeNet<S>::Impl {
@@ -36,6 +49,7 @@ struct StgaeNet<S>::Impl {
   std::optional<GateLayer<S>> enc_gate, pre_gate;
   std::optional<BlockLayer<S>> head;  // centred prediction
   std::optional<LiftLayer<S>> lift;   // causal prediction
+  std::optional<DgnParts<S>> dgn;     // family dgn: the network instead of the above
   Mat<S> pe;                          // DT x C
 };
 
@@ -54,8 +68,27 @@ StgaeNet<S>::StgaeNet(const StgaeConfig& c, const StgaeWeights& w) : impl_(std::
   m.shape = static_cast<S>(c.shape_scale_m);
   m.inv_shape = static_cast<S>(1.0 / c.shape_scale_m);
   m.inv_vel = static_cast<S>(1.0 / c.velocity_scale_m);
-  for (const StgaeNode& node : stgae_topology(c)) {
+  if (c.family == StgaeFamily::Dgn) {
+    auto& d = m.dgn.emplace();
+    d.graph = dgn::dgn_graph(c);
+    for (const StgaeNode& node : stgae_topology(c)) {
+      switch (node.section) {
+        case StgaeSection::Encoder: d.enc.emplace_back(c, node, w); break;
+        case StgaeSection::Denoise: d.den.emplace_back(c, node, w); break;
+        case StgaeSection::PredictDecoder: d.pre.emplace_back(c, node, w); break;
+        case StgaeSection::Temporal:
+          d.tv.emplace_back(c, node, w, "v.", d.graph.n);
+          d.te.emplace_back(c, node, w, "e.", d.graph.e);
+          break;
+        case StgaeSection::PredictInput: d.lift.emplace(c, node, w); break;
+        case StgaeSection::EncoderGate:
+        case StgaeSection::PredictGate: break;  // none in a DGN
+      }
+    }
+  }
+  for (const StgaeNode& node : c.family == StgaeFamily::Dgn ? std::vector<StgaeNode>{} : stgae_topology(c)) {
     switch (node.section) {
+      case StgaeSection::Temporal: break;  // DGN only
       case StgaeSection::Encoder: m.enc.emplace_back(c, node, w); break;
       case StgaeSection::Denoise: m.den.emplace_back(c, node, w); break;
       case StgaeSection::PredictDecoder: m.pre.emplace_back(c, node, w); break;
@@ -87,18 +120,116 @@ std::shared_ptr<const StgaeNet<S>> make_stgae_net(const StgaeConfig& config, con
 
 namespace {
 
+// PE row i added to the rows of predicted frame i ((DT*rows) x C).
+template <class S>
+void add_positional_encoding(const Mat<S>& pe, Eigen::Index rows, Mat<S>& z) noexcept {
+  for (Eigen::Index i = 0; i < pe.rows(); ++i) z.middleRows(i * rows, rows).rowwise() += pe.row(i);
+}
+
 // Prediction decoder on Z ((DT*N) x C): PE added in place, then the pre blocks over the DT
 // frames. Allocation-free when outs/ws were sized by an earlier call.
 template <class S>
 const Mat<S>& predict_decoder(const typename StgaeNet<S>::Impl& m, Mat<S>& z, std::vector<Mat<S>>& outs,
                               std::vector<typename BlockLayer<S>::Workspace>& ws) {
-  for (int i = 0; i < m.DT; ++i) z.middleRows(Eigen::Index(i) * m.n, m.n).rowwise() += m.pe.row(i);
+  add_positional_encoding(m.pe, m.n, z);
   const Mat<S>* cur = &z;
   for (size_t i = 0; i < m.pre.size(); ++i) {
     m.pre[i].forward(m.DT, *cur, outs[i], ws[i]);
     cur = &outs[i];
   }
   return *cur;
+}
+
+// Multi-STGAE in window mode: features f ((L*N) x 6) -> offsets d, q.
+template <class S>
+void stgae_window(const typename StgaeNet<S>::Impl& m, int L, const Mat<S>& f, Mat<S>& d, Mat<S>& q) {
+  typename BlockLayer<S>::Workspace ws;
+  Mat<S> a = f, b;
+  for (const auto& blk : m.enc) {
+    blk.forward(L, a, b, ws);
+    std::swap(a, b);
+  }
+  typename GateLayer<S>::Workspace gws;
+  Mat<S> h;
+  if (m.enc_gate) m.enc_gate->forward(L, a, h, gws);
+  else h = a;
+  d = h;
+  for (const auto& blk : m.den) {
+    blk.forward(L, d, b, ws);
+    std::swap(d, b);
+  }
+  if (m.DT == 0) return;
+  Mat<S> p;
+  if (m.pre_gate) m.pre_gate->forward(L, h, p, gws);
+  else p = h;
+  Mat<S> z;
+  if (m.lift) m.lift->forward(L, p, z);
+  else m.head->forward(L, p, z, ws);
+  std::vector<Mat<S>> outs(m.pre.size());
+  std::vector<typename BlockLayer<S>::Workspace> pws(m.pre.size());
+  q = predict_decoder<S>(m, z, outs, pws);
+}
+
+// DGN blocks over F frames of both streams, in place ((F*N) x C, (F*E) x C).
+template <class S>
+void dgn_blocks(const std::vector<DgnBlockLayer<S>>& blocks, int F, Mat<S>& v, Mat<S>& e, Mat<S>& v2, Mat<S>& e2,
+                typename DgnBlockLayer<S>::Workspace& ws) {
+  for (const auto& blk : blocks) {
+    blk.forward(F, v, e, v2, e2, ws);
+    std::swap(v, v2);
+    std::swap(e, e2);
+  }
+}
+
+// The DGN prediction decoder on the lifted frames (zv, ze; PE added in place); outputs
+// per block, so that a stream's second call allocates nothing. Returns the offsets' streams.
+template <class S>
+struct DgnDecoderBuffers {
+  std::vector<Mat<S>> v, e;
+  std::vector<typename DgnBlockLayer<S>::Workspace> ws;  // one per block: widths differ
+};
+template <class S>
+std::pair<const Mat<S>*, const Mat<S>*> dgn_predict_decoder(const typename StgaeNet<S>::Impl& m, Mat<S>& zv, Mat<S>& ze,
+                                                          DgnDecoderBuffers<S>& buf) {
+  const auto& g = *m.dgn;
+  add_positional_encoding(m.pe, g.graph.n, zv);
+  add_positional_encoding(m.pe, g.graph.e, ze);
+  buf.v.resize(g.pre.size());
+  buf.e.resize(g.pre.size());
+  buf.ws.resize(g.pre.size());
+  const Mat<S>* v = &zv;
+  const Mat<S>* e = &ze;
+  for (size_t i = 0; i < g.pre.size(); ++i) {
+    g.pre[i].forward(m.DT, *v, *e, buf.v[i], buf.e[i], buf.ws[i]);
+    v = &buf.v[i];
+    e = &buf.e[i];
+  }
+  return {v, e};
+}
+
+// DGN in window mode (dgn_layers.hpp step 4): features f ((L*N) x 6) -> offsets d, q.
+template <class S>
+void dgn_window(const typename StgaeNet<S>::Impl& m, int L, const Mat<S>& f, Mat<S>& d, Mat<S>& q) {
+  const auto& g = *m.dgn;
+  typename DgnBlockLayer<S>::Workspace ws;
+  Mat<S> v = f, e, v2, e2;
+  dgn::dgn_bone_features(g.graph, L, f, e);
+  dgn_blocks(g.enc, L, v, e, v2, e2, ws);
+  for (size_t i = 0; i < g.tv.size(); ++i) {
+    g.tv[i].forward(L, v, v2);
+    g.te[i].forward(L, e, e2);
+    std::swap(v, v2);
+    std::swap(e, e2);
+  }
+  Mat<S> dv = v, de = e;
+  dgn_blocks(g.den, L, dv, de, v2, e2, ws);
+  dgn::dgn_combine(g.graph, L, dv, de, d);
+  if (m.DT == 0) return;
+  Mat<S> zv, ze;
+  g.lift->forward(L, v, e, zv, ze);
+  DgnDecoderBuffers<S> buf;
+  const auto [qv, qe] = dgn_predict_decoder<S>(m, zv, ze, buf);
+  dgn::dgn_combine(g.graph, m.DT, *qv, *qe, q);
 }
 
 }  // namespace
@@ -112,7 +243,7 @@ StgaeOutput<S> stgae_window_forward(const StgaeNet<S>& net, const StgaeFrames<S>
                                            std::to_string(3 * n));
   if (in.rows() < 1) throw InputError(SourceLocation{}, "STGAE input has no frames");
   const int L = static_cast<int>(in.rows());
-  if (!m.causal && m.DT > 0 && L != m.T)
+  if (!m.dgn && !m.causal && m.DT > 0 && L != m.T)
     throw InputError(SourceLocation{}, "the centred prediction model needs exactly " + std::to_string(m.T) +
                                            " frames, got " + std::to_string(L));
   const Eigen::Index LN = Eigen::Index(L) * n;
@@ -128,22 +259,9 @@ StgaeOutput<S> stgae_window_forward(const StgaeNet<S>& net, const StgaeFrames<S>
     x.middleRows(Eigen::Index(t) * n, n) = xt;
     xprev = xt;
   }
-  typename BlockLayer<S>::Workspace ws;
-  Mat<S> a = f, b;
-  for (const auto& blk : m.enc) {
-    blk.forward(L, a, b, ws);
-    std::swap(a, b);
-  }
-  typename GateLayer<S>::Workspace gws;
-  Mat<S> h;
-  if (m.enc_gate) m.enc_gate->forward(L, a, h, gws);
-  else h = a;
-  // Denoise.
-  Mat<S> d = h;
-  for (const auto& blk : m.den) {
-    blk.forward(L, d, b, ws);
-    std::swap(d, b);
-  }
+  Mat<S> d, q;  // offsets: denoised (L*N) x 3, predicted (DT*N) x 3
+  if (m.dgn) dgn_window<S>(m, L, f, d, q);
+  else stgae_window<S>(m, L, f, d, q);
   StgaeOutput<S> out;
   out.denoised.resize(L, 3 * n);
   for (int t = 0; t < L; ++t)
@@ -151,17 +269,6 @@ StgaeOutput<S> stgae_window_forward(const StgaeNet<S>& net, const StgaeFrames<S>
       for (int c = 0; c < 3; ++c)
         out.denoised(t, 3 * j + c) = x(Eigen::Index(t) * n + j, c) + m.shape * d(Eigen::Index(t) * n + j, c);
   out.predicted.resize(m.DT, 3 * n);
-  if (m.DT == 0) return out;
-  // Predict.
-  Mat<S> p;
-  if (m.pre_gate) m.pre_gate->forward(L, h, p, gws);
-  else p = h;
-  Mat<S> z;
-  if (m.lift) m.lift->forward(L, p, z);
-  else m.head->forward(L, p, z, ws);
-  std::vector<Mat<S>> outs(m.pre.size());
-  std::vector<typename BlockLayer<S>::Workspace> pws(m.pre.size());
-  const Mat<S>& q = predict_decoder<S>(m, z, outs, pws);
   for (int i = 0; i < m.DT; ++i)
     for (int j = 0; j < n; ++j)
       for (int c = 0; c < 3; ++c)
@@ -182,7 +289,61 @@ struct StgaeStream<S>::State {
   std::vector<typename BlockLayer<S>::Workspace> pre_ws;
   std::vector<S> den_out, pred_out;
   long t = 0;
+  // family dgn
+  struct Dgn {
+    Mat<S> fe, d, q;
+    std::vector<typename DgnBlockLayer<S>::State> enc, den;
+    std::vector<typename DgnTemporalLayer<S>::State> tv, te;
+    std::optional<typename DgnLiftLayer<S>::State> lift;
+    DgnDecoderBuffers<S> pre;
+  };
+  std::optional<Dgn> dgn;
 };
+
+namespace {
+
+// One frame of a DGN stream: features in s.f -> s.den_out, s.pred_out.
+template <class S>
+void push_dgn(const typename StgaeNet<S>::Impl& m, typename StgaeStream<S>::State& s) noexcept {
+  const auto& g = *m.dgn;
+  auto& d = *s.dgn;
+  const int n = m.n;
+  dgn::dgn_bone_features(g.graph, 1, s.f, d.fe);
+  const Mat<S>* v = &s.f;
+  const Mat<S>* e = &d.fe;
+  for (size_t i = 0; i < g.enc.size(); ++i) {
+    g.enc[i].step(d.enc[i], *v, *e);
+    v = &d.enc[i].v;
+    e = &d.enc[i].e;
+  }
+  for (size_t i = 0; i < g.tv.size(); ++i) {
+    g.tv[i].step(d.tv[i], *v, s.t);
+    g.te[i].step(d.te[i], *e, s.t);
+    v = &d.tv[i].out;
+    e = &d.te[i].out;
+  }
+  const Mat<S>* hv = v;
+  const Mat<S>* he = e;
+  for (size_t i = 0; i < g.den.size(); ++i) {
+    g.den[i].step(d.den[i], *v, *e);
+    v = &d.den[i].v;
+    e = &d.den[i].e;
+  }
+  dgn::dgn_combine(g.graph, 1, *v, *e, d.d);
+  for (int j = 0; j < n; ++j)
+    for (int c = 0; c < 3; ++c) s.den_out[static_cast<size_t>(3 * j + c)] = s.x(j, c) + m.shape * d.d(j, c);
+  if (m.DT == 0) return;
+  g.lift->step(*d.lift, *hv, *he);
+  const auto [qv, qe] = dgn_predict_decoder<S>(m, d.lift->zv, d.lift->ze, d.pre);
+  dgn::dgn_combine(g.graph, m.DT, *qv, *qe, d.q);
+  for (int i = 0; i < m.DT; ++i)
+    for (int j = 0; j < n; ++j)
+      for (int c = 0; c < 3; ++c)
+        s.pred_out[static_cast<size_t>((i * n + j) * 3 + c)] =
+            s.den_out[static_cast<size_t>(3 * j + c)] + m.shape * d.q(Eigen::Index(i) * n + j, c);
+}
+
+}  // namespace
 
 template <class S>
 StgaeStream<S>::StgaeStream(std::shared_ptr<const StgaeNet<S>> net) : net_(std::move(net)), s_(std::make_unique<State>()) {
@@ -195,11 +356,30 @@ StgaeStream<S>::StgaeStream(std::shared_ptr<const StgaeNet<S>> net) : net_(std::
   s.x.resize(n, 3);
   s.xprev.resize(n, 3);
   s.f.resize(n, 6);
+  if (m.dgn) {
+    const auto& g = *m.dgn;
+    auto& d = s.dgn.emplace();
+    d.fe.resize(g.graph.e, 6);
+    d.d.resize(n, 3);
+    d.q.resize(Eigen::Index(m.DT) * n, 3);
+    for (const auto& b : g.enc) d.enc.push_back(b.make_state());
+    for (const auto& b : g.den) d.den.push_back(b.make_state());
+    for (const auto& b : g.tv) d.tv.push_back(b.make_state());
+    for (const auto& b : g.te) d.te.push_back(b.make_state());
+    if (m.DT > 0) {
+      d.lift = g.lift->make_state();
+      // One untimed run sizes every buffer of the prediction decoder.
+      d.lift->zv.setZero();
+      d.lift->ze.setZero();
+      (void)dgn_predict_decoder<S>(m, d.lift->zv, d.lift->ze, d.pre);
+    }
+  }
   for (const auto& b : m.enc) s.enc.push_back(b.make_state());
   for (const auto& b : m.den) s.den.push_back(b.make_state());
   if (m.enc_gate) s.enc_gate = m.enc_gate->make_state();
   s.den_out.assign(static_cast<size_t>(3 * n), S(0));
-  if (m.DT > 0) {
+  if (m.DT > 0) s.pred_out.assign(static_cast<size_t>(m.DT) * 3 * static_cast<size_t>(n), S(0));
+  if (m.DT > 0 && !m.dgn) {
     if (m.pre_gate) s.pre_gate = m.pre_gate->make_state();
     s.lift = m.lift->make_state();
     s.pre_out.resize(m.pre.size());
@@ -207,7 +387,6 @@ StgaeStream<S>::StgaeStream(std::shared_ptr<const StgaeNet<S>> net) : net_(std::
     // One untimed run sizes every workspace of the prediction decoder.
     s.lift->out.setZero();
     (void)predict_decoder<S>(m, s.lift->out, s.pre_out, s.pre_ws);
-    s.pred_out.assign(static_cast<size_t>(m.DT) * 3 * static_cast<size_t>(n), S(0));
   }
   reset();
 }
@@ -224,6 +403,10 @@ void StgaeStream<S>::reset() noexcept {
   if (s.enc_gate) s.enc_gate->reset();
   if (s.pre_gate) s.pre_gate->reset();
   if (s.lift) s.lift->reset();
+  if (s.dgn) {
+    for (auto& b : s.dgn->tv) b.reset();
+    for (auto& b : s.dgn->te) b.reset();
+  }
   std::fill(s.den_out.begin(), s.den_out.end(), std::numeric_limits<S>::quiet_NaN());
   std::fill(s.pred_out.begin(), s.pred_out.end(), std::numeric_limits<S>::quiet_NaN());
   s.t = 0;
@@ -238,6 +421,11 @@ bool StgaeStream<S>::push(std::span<const S> frame) noexcept {
   if (!s.fill.fill(frame.data(), s.x)) return false;
   stgae_frame_features(s.x, s.t > 0 ? &s.xprev : nullptr, m.anchors.wrist, m.inv_shape, m.inv_vel, s.f);
   s.xprev = s.x;
+  if (m.dgn) {
+    push_dgn<S>(m, s);
+    ++s.t;
+    return true;
+  }
   const Mat<S>* cur = &s.f;
   for (size_t i = 0; i < m.enc.size(); ++i) {
     m.enc[i].step(s.enc[i], *cur, s.t);

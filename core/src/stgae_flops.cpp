@@ -16,7 +16,8 @@ StgaeFlops count(const StgaeConfig& c, std::int64_t L) {
   for (const StgaeNode& node : stgae_topology(c)) {
     const std::int64_t flops = 2 * node.macs(c, L);
     switch (node.section) {
-      case StgaeSection::Encoder: r.encoder += flops; break;
+      case StgaeSection::Encoder:
+      case StgaeSection::Temporal: r.encoder += flops; break;
       case StgaeSection::EncoderGate:
       case StgaeSection::PredictGate: r.gates += flops; break;
       case StgaeSection::Denoise: r.denoise += flops; break;
@@ -37,7 +38,8 @@ StgaeFlops stgae_flops_per_frame(const StgaeConfig& config) {
 
 StgaeFlops stgae_flops_per_window(const StgaeConfig& config, int frames) {
   if (frames < 1) throw std::invalid_argument("stgae_flops_per_window: frames must be >= 1");
-  if (config.padding == StgaePadding::Centred && config.predict && frames != config.window)
+  if (config.family == StgaeFamily::MultiStgae && config.padding == StgaePadding::Centred && config.predict &&
+      frames != config.window)
     throw std::invalid_argument("stgae_flops_per_window: the centred prediction model needs exactly " +
                                 std::to_string(config.window) + " frames, got " + std::to_string(frames));
   return count(config, frames);

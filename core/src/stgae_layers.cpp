@@ -3,6 +3,7 @@
 #include "handsteady/stgae_layers.hpp"
 
 #include "handsteady/skeleton.hpp"
+#include "layer_weights.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -12,58 +13,6 @@ namespace hs::stgae {
 namespace {
 
 constexpr int K = kSubsets;
-constexpr double kBnEps = 1e-5;
-
-struct BnFold {
-  Eigen::RowVectorXd scale, shift;
-};
-BnFold bn_fold(const StgaeWeights& w, const std::string& p) {
-  const auto& g = w.at(p + "weight").data;
-  const auto& b = w.at(p + "bias").data;
-  const auto& m = w.at(p + "running_mean").data;
-  const auto& v = w.at(p + "running_var").data;
-  BnFold f;
-  const auto n = static_cast<Eigen::Index>(g.size());
-  f.scale.resize(n);
-  f.shift.resize(n);
-  for (Eigen::Index i = 0; i < n; ++i) {
-    const auto u = static_cast<size_t>(i);
-    f.scale(i) = static_cast<double>(g[u]) / std::sqrt(static_cast<double>(v[u]) + kBnEps);
-    f.shift(i) = static_cast<double>(b[u]) - static_cast<double>(m[u]) * f.scale(i);
-  }
-  return f;
-}
-
-// conv weight [out, in] (+ bias) followed by BN -> (in x out, 1 x out).
-template <class S>
-void fold_conv(const StgaeWeights& w, const std::string& conv, const std::string& bn, Mat<S>& wt, RVec<S>& bias) {
-  const Tensor& W = w.at(conv + "weight");
-  const Tensor& B = w.at(conv + "bias");
-  const int out = W.shape[0], in = W.shape[1];
-  const BnFold f = bn_fold(w, bn);
-  wt.resize(in, out);
-  bias.resize(out);
-  for (int o = 0; o < out; ++o) {
-    for (int i = 0; i < in; ++i)
-      wt(i, o) = static_cast<S>(static_cast<double>(W.data[static_cast<size_t>(o * in + i)]) * f.scale(o));
-    bias(o) = static_cast<S>(static_cast<double>(B.data[static_cast<size_t>(o)]) * f.scale(o) + f.shift(o));
-  }
-}
-
-template <class S>
-Mat<S> transposed(const Tensor& t) {  // [out, in] -> in x out
-  const int out = t.shape[0], in = t.shape[1];
-  Mat<S> m(in, out);
-  for (int o = 0; o < out; ++o)
-    for (int i = 0; i < in; ++i) m(i, o) = static_cast<S>(t.data[static_cast<size_t>(o * in + i)]);
-  return m;
-}
-
-template <class S>
-RVec<S> row(const Tensor& t) {
-  return Eigen::Map<const Eigen::RowVectorXf>(t.data.data(), static_cast<Eigen::Index>(t.data.size())).cast<S>();
-}
-
 // Softmax of each column (column v of a transposed score = row v of the score).
 template <class S>
 void softmax_columns(Mat<S>& m) noexcept {
@@ -122,7 +71,7 @@ template <class S>
 BlockLayer<S>::BlockLayer(const StgaeConfig& c, const StgaeNode& node, const StgaeWeights& w) : node_(node) {
   check_node_tensors(node, w);
   const std::string& p = node.prefix;
-  const int N = c.joint_count(), cin = node.c_in, cout = node.c_out, kt = node.kernel;
+  const int N = c.joint_count(), cin = node.c_in;
   n_ = N;
   T_ = c.window;
   d_ = std::max(1, cin / 2);
@@ -147,18 +96,7 @@ BlockLayer<S>::BlockLayer(const StgaeConfig& c, const StgaeNode& node, const Stg
     wemb_ = transposed<S>(w.at(p + "att.emb.weight"));
     a_ = transposed<S>(w.at(p + "att.a"));  // [K, 2d] -> 2d x K
   }
-  const Tensor& W = w.at(p + "tcn.conv.weight");  // [cout, cout, kt]
-  const Tensor& B = w.at(p + "tcn.conv.bias");
-  const BnFold f = bn_fold(w, p + "tcn.bn.");
-  wt_.resize(kt * cout, cout);
-  bt_.resize(cout);
-  for (int o = 0; o < cout; ++o) {
-    for (int i = 0; i < cout; ++i)
-      for (int j = 0; j < kt; ++j)
-        wt_(j * cout + i, o) =
-            static_cast<S>(static_cast<double>(W.data[static_cast<size_t>((o * cout + i) * kt + j)]) * f.scale(o));
-    bt_(o) = static_cast<S>(static_cast<double>(B.data[static_cast<size_t>(o)]) * f.scale(o) + f.shift(o));
-  }
+  fold_temporal_conv(w, p + "tcn.conv.", p + "tcn.bn.", wt_, bt_);
   fold_conv(w, p + "res.conv.", p + "res.bn.", wr_, br_);
 }
 

@@ -38,7 +38,7 @@ const std::set<std::string, std::less<>>& config_keys() {
   static const std::set<std::string, std::less<>> keys = {
       "skeleton", "window", "horizon", "rate_hz", "encoder_channels", "denoise_decoder_channels",
       "predict_decoder_channels", "temporal_kernel", "padding", "attention", "c_variant", "gates",
-      "predict", "shape_scale_m", "velocity_scale_m", "meta"};
+      "predict", "shape_scale_m", "velocity_scale_m", "meta", "family", "temporal", "temporal_layers"};
   return keys;
 }
 
@@ -58,6 +58,18 @@ StgaeConfig parse_stgae_config(std::string_view text, const std::string& source)
     if (!config_keys().contains(key)) config_error(source, key, "unknown configuration key");
 
   StgaeConfig c;
+  if (j.contains("family")) {
+    const auto& v = j.at("family");
+    const std::string s = v.is_string() ? v.get<std::string>() : std::string();
+    if (s == "multi-stgae") c.family = StgaeFamily::MultiStgae;
+    else if (s == "dgn") c.family = StgaeFamily::Dgn;
+    else config_error(source, "family", "expected \"multi-stgae\" or \"dgn\"");
+  }
+  const bool dgn = c.family == StgaeFamily::Dgn;
+  for (const char* key : {"attention", "c_variant", "gates"})
+    if (dgn && j.contains(key)) config_error(source, key, "does not apply to the dgn family");
+  for (const char* key : {"temporal", "temporal_layers"})
+    if (!dgn && j.contains(key)) config_error(source, key, "applies to the dgn family only");
   auto get_int = [&](const char* key, int& out) {
     if (!j.contains(key)) return;
     const auto& v = j.at(key);
@@ -124,7 +136,15 @@ StgaeConfig parse_stgae_config(std::string_view text, const std::string& source)
     else config_error(source, "c_variant", "expected \"dot\" or \"gat\", got \"" + s + "\"");
   }
   get_bool("gates", c.gates);
+  if (dgn) c.gates = false;
   get_bool("predict", c.predict);
+  if (j.contains("temporal")) {
+    const auto s = get_string("temporal");
+    if (s == "lstm") c.temporal = DgnTemporal::Lstm;
+    else if (s == "tcn") c.temporal = DgnTemporal::Tcn;
+    else config_error(source, "temporal", "expected \"lstm\" or \"tcn\", got \"" + s + "\"");
+  }
+  get_int("temporal_layers", c.temporal_layers);
   get_double("shape_scale_m", c.shape_scale_m);
   get_double("velocity_scale_m", c.velocity_scale_m);
   if (j.contains("meta")) {
@@ -137,6 +157,8 @@ StgaeConfig parse_stgae_config(std::string_view text, const std::string& source)
 
 std::string to_json(const StgaeConfig& c) {
   json j;
+  const bool dgn = c.family == StgaeFamily::Dgn;
+  if (dgn) j["family"] = "dgn";
   j["skeleton"] = c.skeleton;
   j["window"] = c.window;
   j["horizon"] = c.horizon;
@@ -146,10 +168,16 @@ std::string to_json(const StgaeConfig& c) {
   j["predict_decoder_channels"] = c.predict_decoder_channels;
   j["temporal_kernel"] = c.temporal_kernel;
   j["padding"] = padding_name(c.padding);
-  j["attention"] = attention_name(c.attention);
-  j["c_variant"] = c_variant_name(c.c_variant);
-  j["gates"] = c.gates;
+  if (!dgn) {
+    j["attention"] = attention_name(c.attention);
+    j["c_variant"] = c_variant_name(c.c_variant);
+    j["gates"] = c.gates;
+  }
   j["predict"] = c.predict;
+  if (dgn) {
+    j["temporal"] = c.temporal == DgnTemporal::Lstm ? "lstm" : "tcn";
+    j["temporal_layers"] = c.temporal_layers;
+  }
   j["shape_scale_m"] = c.shape_scale_m;
   j["velocity_scale_m"] = c.velocity_scale_m;
   j["meta"] = c.meta_json.empty() ? json::object() : json::parse(c.meta_json);
@@ -164,7 +192,7 @@ void validate_stgae_config(const StgaeConfig& c, const std::string& source) {
   }
   if (c.window < 1 || c.window > 4096) config_error(source, "window", "must be in [1, 4096]");
   if (c.predict && (c.horizon < 1 || c.horizon > 1024)) config_error(source, "horizon", "must be in [1, 1024]");
-  if (c.predict && c.padding == StgaePadding::Centred && c.horizon > c.window)
+  if (c.family == StgaeFamily::MultiStgae && c.predict && c.padding == StgaePadding::Centred && c.horizon > c.window)
     config_error(source, "horizon", "the centred prediction head needs horizon <= window");
   if (!(c.rate_hz > 0.0 && c.rate_hz <= 1000.0)) config_error(source, "rate_hz", "must be in (0, 1000]");
   if (c.temporal_kernel < 1 || c.temporal_kernel % 2 == 0 || c.temporal_kernel > 255)
@@ -185,6 +213,16 @@ void validate_stgae_config(const StgaeConfig& c, const std::string& source) {
   check_list("encoder_channels", c.encoder_channels, 6, 0);
   check_list("denoise_decoder_channels", c.denoise_decoder_channels, c.encoder_channels.back(), 3);
   if (c.predict) check_list("predict_decoder_channels", c.predict_decoder_channels, c.encoder_channels.back(), 3);
+  if (c.family == StgaeFamily::Dgn) {
+    if (c.gates) config_error(source, "gates", "the dgn family has no gates");
+    const Skeleton& sk = skeleton_by_name(c.skeleton);
+    if (static_cast<int>(sk.bones.size()) != sk.joint_count() - 1 ||
+        std::count(sk.parent.begin(), sk.parent.end(), -1) != 1)
+      config_error(source, "skeleton", "the dgn family needs a tree (one root, one bone per other joint)");
+    if (c.temporal_layers < 0 || c.temporal_layers > 16) config_error(source, "temporal_layers", "must be in [0, 16]");
+    if (c.temporal == DgnTemporal::Lstm && c.padding == StgaePadding::Centred && c.latent_channels() % 2 != 0)
+      config_error(source, "encoder_channels", "a bidirectional LSTM needs an even latent width (half per direction)");
+  }
   try {
     const auto m = json::parse(c.meta_json.empty() ? std::string("{}") : c.meta_json);
     if (!m.is_object()) config_error(source, "meta", "expected a JSON object");

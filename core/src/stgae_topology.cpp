@@ -53,10 +53,89 @@ std::vector<TensorSpec> gate_tensors(const std::string& g, int ch) {
   return out;
 }
 
+std::vector<TensorSpec> dgn_block_tensors(const StgaeConfig& c, const std::string& p, int cin, int cout, bool linear) {
+  const int N = c.joint_count(), E = N - 1;
+  std::vector<TensorSpec> out;
+  out.push_back({p + "S", {N, E}});
+  out.push_back({p + "T", {N, E}});
+  out.push_back({p + "v.weight", {cout, 3 * cin}});
+  out.push_back({p + "v.bias", {cout}});
+  if (!linear) add_bn(out, p + "v_", cout);
+  out.push_back({p + "e.weight", {cout, cin + 2 * cout}});
+  out.push_back({p + "e.bias", {cout}});
+  if (!linear) add_bn(out, p + "e_", cout);
+  return out;
+}
+
+// DGN topology (dgn_layers.hpp): enc blocks, temporal layers, den blocks, and (predict)
+// the lift and the pre blocks on the DT frames.
+std::vector<StgaeNode> dgn_topology(const StgaeConfig& c) {
+  const bool causal = c.padding == StgaePadding::Causal;
+  const int C = c.latent_channels();
+  std::vector<StgaeNode> nodes;
+  auto blocks = [&](StgaeSection section, const std::string& name, const std::vector<int>& ch, StgaeFrameSpan span) {
+    for (size_t i = 0; i + 1 < ch.size(); ++i) {
+      StgaeNode n;
+      n.kind = StgaeNodeKind::DgnBlock;
+      n.section = section;
+      n.prefix = name + "." + std::to_string(i) + ".";
+      n.c_in = ch[i];
+      n.c_out = ch[i + 1];
+      n.span = span;
+      n.linear = section != StgaeSection::Encoder && i + 2 == ch.size();
+      n.tensors = dgn_block_tensors(c, n.prefix, n.c_in, n.c_out, n.linear);
+      nodes.push_back(std::move(n));
+    }
+  };
+  blocks(StgaeSection::Encoder, "enc", c.encoder_channels, StgaeFrameSpan::Input);
+  for (int i = 0; i < c.temporal_layers; ++i) {
+    StgaeNode n;
+    n.kind = StgaeNodeKind::DgnTemporal;
+    n.section = StgaeSection::Temporal;
+    n.prefix = "tmp." + std::to_string(i) + ".";
+    n.c_in = n.c_out = C;
+    n.pad = causal ? StgaeTemporalPad::Causal : StgaeTemporalPad::Centred;
+    n.kernel = c.temporal == DgnTemporal::Tcn ? c.temporal_kernel : 1;
+    for (const char* s : {"v.", "e."}) {
+      const std::string q = n.prefix + s;
+      if (c.temporal == DgnTemporal::Tcn) {
+        n.tensors.push_back({q + "conv.weight", {C, C, n.kernel}});
+        n.tensors.push_back({q + "conv.bias", {C}});
+        add_bn(n.tensors, q, C);
+      } else {
+        const int H = causal ? C : C / 2;
+        for (const char* d : causal ? std::vector<const char*>{"fwd."} : std::vector<const char*>{"fwd.", "bwd."}) {
+          n.tensors.push_back({q + d + "w_ih", {4 * H, C}});
+          n.tensors.push_back({q + d + "w_hh", {4 * H, H}});
+          n.tensors.push_back({q + d + "bias", {4 * H}});
+        }
+      }
+    }
+    nodes.push_back(std::move(n));
+  }
+  blocks(StgaeSection::Denoise, "den", c.denoise_decoder_channels, StgaeFrameSpan::Input);
+  if (!c.predict) return nodes;
+  StgaeNode n;
+  n.kind = StgaeNodeKind::DgnLift;
+  n.section = StgaeSection::PredictInput;
+  n.prefix = "pre.lift.";
+  n.c_in = C;
+  n.c_out = c.horizon * C;
+  n.span = StgaeFrameSpan::Newest;
+  for (const char* s : {"v.", "e."}) {
+    n.tensors.push_back({n.prefix + s + "weight", {n.c_out, C}});
+    n.tensors.push_back({n.prefix + s + "bias", {n.c_out}});
+  }
+  nodes.push_back(std::move(n));
+  blocks(StgaeSection::PredictDecoder, "pre", c.predict_decoder_channels, StgaeFrameSpan::Horizon);
+  return nodes;
+}
+
 }  // namespace
 
 std::vector<StgaeNode> stgae_topology(const StgaeConfig& c) {
   validate_stgae_config(c);
+  if (c.family == StgaeFamily::Dgn) return dgn_topology(c);
   const bool causal = c.padding == StgaePadding::Causal;
   const StgaeTemporalPad pad = causal ? StgaeTemporalPad::Causal : StgaeTemporalPad::Centred;
   const StgaeTimeMean mean = causal ? StgaeTimeMean::Causal : StgaeTimeMean::Whole;
@@ -161,6 +240,19 @@ std::int64_t StgaeNode::macs(const StgaeConfig& c, std::int64_t L) const {
       return means * n * 2 * cin * hc + f_in * 2 * cin * hc;  // time pools per joint, joint pool per frame
     }
     case StgaeNodeKind::Lift: return f_in * n * cin * cout;
+    case StgaeNodeKind::DgnBlock: {
+      // vertex and edge updates, and the four incidence products (dense N x E).
+      const std::int64_t e = n - 1;
+      return f_in * (n * 3 * cin * cout + e * (cin + 2 * cout) * cout + 2 * n * e * (cin + cout));
+    }
+    case StgaeNodeKind::DgnTemporal: {
+      const std::int64_t rows = 2 * n - 1;  // joints and bones
+      if (c.temporal == DgnTemporal::Tcn) return f_in * rows * kernel * cin * cout;
+      const bool bi = pad == StgaeTemporalPad::Centred;
+      const std::int64_t h = bi ? cin / 2 : cin;
+      return f_in * rows * (bi ? 2 : 1) * 4 * h * (cin + h);
+    }
+    case StgaeNodeKind::DgnLift: return f_in * (2 * n - 1) * cin * cout;
   }
   return 0;
 }

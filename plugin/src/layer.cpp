@@ -690,7 +690,7 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateApiLayerInstance(const XrInstanceCreateInfo
                                     engine_name(d->config),
                                     static_cast<double>(d->config.horizon_ns) * 1e-6,
                                     d->hand_tracking ? "enabled by the app" : "not enabled by the app"));
-    if (!d->config.model_path.empty() && d->config.filter.method != FilterMethod::Stgae)
+    if (!d->config.model_path.empty() && !is_network(d->config.filter.method))
       log(LogLevel::Info, fmt::format("model '{}' is not used by the classical engines", d->config.model_path));
     std::unique_lock lock(reg().mu);
     reg().instances[*instance] = std::move(d);

@@ -227,7 +227,10 @@ FilterMethod classical_default(Mode m) { return m == Mode::Predict ? FilterMetho
 }  // namespace
 
 void resolve_engine(LayerConfig& c, std::vector<LogMessage>& messages) {
-  const bool requested = c.method_given && c.filter.method == FilterMethod::Stgae;
+  const bool requested = c.method_given && is_network(c.filter.method);
+  // The network to load: the one asked for, else (no method given) Multi-STGAE.
+  const FilterMethod network = requested ? c.filter.method : FilterMethod::Stgae;
+  const std::string net_name(filter_method_name(network));
   c.filter.stgae.model.reset();
   if (c.method_given && !requested) return;  // a classical method was asked for
   c.filter.method = classical_default(c.mode);  // the fallback, if needed
@@ -236,27 +239,28 @@ void resolve_engine(LayerConfig& c, std::vector<LogMessage>& messages) {
   std::filesystem::path file = c.model_path;
   if (file.empty()) {
     const auto dir = layer_library_dir();
-    const ModelLookup found = lookup_default_model({dir.empty() ? dir : dir / HS_LAYER_MODELS_RELDIR});
+    const ModelLookup found =
+        lookup_default_model({dir.empty() ? dir : dir / HS_LAYER_MODELS_RELDIR}, default_model_file(network));
     if (found.found.empty()) {
       messages.push_back({requested ? LogLevel::Error : LogLevel::Info,
-                          "engine " + fallback + ": no Multi-STGAE model found (tried " + found.describe_tried() + ")"});
+                          "engine " + fallback + ": no " + net_name + " model found (tried " + found.describe_tried() + ")"});
       return;
     }
     file = found.found;
   }
   try {
     FilterConfig stgae = c.filter;
-    stgae.method = FilterMethod::Stgae;
+    stgae.method = network;
     stgae.stgae.model = load_hsm(file);
     stgae.stgae.source = file.string();
-    // Checks the model can stream (causal, 26 joints) before any tracker exists.
+    // Checks the model can stream (causal, 26 joints, the method's family) before any tracker exists.
     (void)make_filter(stgae);
     c.filter = std::move(stgae);
     c.model_path = file.string();
-    messages.push_back({LogLevel::Info, "engine stgae: model " + file.string() +
-                                            (requested ? " (method stgae)" : " (default: a model was found)")});
+    messages.push_back({LogLevel::Info, "engine " + net_name + ": model " + file.string() +
+                                            (requested ? " (method " + net_name + ")" : " (default: a model was found)")});
   } catch (const std::exception& e) {
-    messages.push_back({LogLevel::Error, "engine " + fallback + ": the Multi-STGAE model " + file.string() +
+    messages.push_back({LogLevel::Error, "engine " + fallback + ": the " + net_name + " model " + file.string() +
                                              " cannot be used: " + e.what()});
   }
 }
@@ -348,7 +352,7 @@ LoadedConfig load_layer_config() {
   // constant-velocity Kalman (which extrapolates) for predict; Multi-STGAE (which does
   // both) when a model is found and no method is given. Never in mode off (nothing runs).
   if (c.mode == Mode::Off) {
-    if (!c.method_given || c.filter.method == FilterMethod::Stgae) c.filter.method = classical_default(c.mode);
+    if (!c.method_given || is_network(c.filter.method)) c.filter.method = classical_default(c.mode);
     return out;
   }
   resolve_engine(c, out.engine_messages);

@@ -14,7 +14,7 @@ namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 double reset_gap_s(const LayerConfig& c) {
-  return c.filter.method == FilterMethod::Stgae ? std::min(c.filter.max_gap_s, kModelResetGapS) : c.filter.max_gap_s;
+  return is_network(c.filter.method) ? std::min(c.filter.max_gap_s, kModelResetGapS) : c.filter.max_gap_s;
 }
 
 // How far past its newest processed sample the engine answers: the largest horizon a
@@ -26,7 +26,7 @@ double max_ahead_s(const LayerConfig& c) {
 
 Execution execution(const LayerConfig& c) {
   // The network runs off the app's thread; classical filters cost less than the hand-off.
-  const bool network = c.filter.method == FilterMethod::Stgae;
+  const bool network = is_network(c.filter.method);
   switch (c.worker) {
     case WorkerMode::Inline: return Execution::Inline;
     case WorkerMode::Worker: return Execution::Worker;

@@ -22,8 +22,10 @@ using namespace hs::xrtest;
 
 namespace {
 
-std::filesystem::path random_model(const std::filesystem::path& dir) {
+std::filesystem::path random_model(const std::filesystem::path& dir, StgaeFamily family = StgaeFamily::MultiStgae) {
   StgaeConfig c;
+  c.family = family;
+  c.gates = family == StgaeFamily::MultiStgae;
   c.window = 6;
   c.horizon = 3;
   c.rate_hz = 30.0;
@@ -34,7 +36,7 @@ std::filesystem::path random_model(const std::filesystem::path& dir) {
   c.padding = StgaePadding::Causal;
   // Small weights: the offsets stay well below the hand's size.
   const auto w = random_stgae_weights(c, 23, 0.5);
-  const auto file = dir / "random_causal.hsm";
+  const auto file = dir / (family == StgaeFamily::Dgn ? "random_dgn.hsm" : "random_causal.hsm");
   save_hsm(file, c, w, make_stgae_reference(c, w, synthetic_hand_input(c, c.window, 4)));
   return file;
 }
@@ -105,28 +107,30 @@ void check_against_runtime(const std::vector<Frame>& layer, const std::vector<Fr
 
 }  // namespace
 
-TEST_CASE("stgae by HANDSTEADY_METHOD, denoise and predict: finite answers, runtime flags kept, engine used") {
+TEST_CASE("stgae and dgn by HANDSTEADY_METHOD, denoise and predict: finite answers, runtime flags kept, engine used") {
   const TrackFiles f = make_tracks("stgae", 3.0, 0.003, true);  // the right hand leaves for 1 s
-  const auto model = random_model(f.dir);
   reset_env(f);
   set_env("HANDSTEADY_WORKER", "lockstep");  // simulated clock: deterministic hand-off
   set_env("HANDSTEADY_SHIM_HEAD_MOTION", "1");
   const auto runtime = run_frames(200);
+  for (const std::string method : {"stgae", "dgn"})
   for (const std::string mode : {"denoise", "predict"}) {
+    CAPTURE(method);
     CAPTURE(mode);
-    const auto rec = f.dir / ("rec_" + mode);
+    const auto model = random_model(f.dir, method == "dgn" ? StgaeFamily::Dgn : StgaeFamily::MultiStgae);
+    const auto rec = f.dir / ("rec_" + method + "_" + mode);
     std::filesystem::remove_all(rec);
     reset_env(f);
     set_env("HANDSTEADY_WORKER", "lockstep");  // simulated clock: deterministic hand-off
     set_env("HANDSTEADY_SHIM_HEAD_MOTION", "1");
-    set_env("HANDSTEADY_METHOD", "stgae");
+    set_env("HANDSTEADY_METHOD", method);
     set_env("HANDSTEADY_MODEL", model.string());
     set_env("HANDSTEADY_MODE", mode);
     set_env("HANDSTEADY_RECORD", rec.string());
     enable_layers({kLayer});
     const auto layer = run_frames(200);
     check_against_runtime(layer, runtime, 0.15);
-    CHECK(recorded_engine(rec) == "stgae");
+    CHECK(recorded_engine(rec) == method);
     // Not a passthrough: the engine changed the answers.
     double moved = 0.0;
     for (size_t i = 50; i < layer.size(); ++i)

@@ -1,5 +1,7 @@
 #include "stgae_torch.hpp"
 
+#include "dgn_torch.hpp"
+
 #include "handsteady/skeleton.hpp"
 #include "handsteady/stgae_features.hpp"
 #include "handsteady/stgae_topology.hpp"
@@ -166,24 +168,30 @@ torch::Tensor BlockImpl::forward(const torch::Tensor& f) {
   } else {
     g = torch::matmul(hp, M.reshape({K * N, N}));
   }
-  // d. temporal conv over frames as one GEMM: unfold gives the kt (zero-padded) frames under
-  // the kernel as [B, L', N, C, kt] (index c*kt + j after reshape = W's [Cout, Cin*kt] layout).
-  auto gl = g.transpose(2, 3);  // [B, L, N, C]
-  const int64_t kt = opt.kernel;
-  if (opt.pad == StgaeTemporalPad::Causal && kt > 1) {
-    gl = torch::constant_pad_nd(gl, {0, 0, 0, 0, kt - 1, 0});
-  } else if (opt.pad == StgaeTemporalPad::Centred && kt > 1) {
-    gl = torch::constant_pad_nd(gl, {0, 0, 0, 0, (kt - 1) / 2, (kt - 1) / 2});
-  }
-  const int64_t Lo = gl.size(1) - kt + 1;
-  const auto stacked = gl.unfold(1, kt, 1).reshape({Bn, Lo, N, C * kt});
-  const auto u = torch::linear(stacked, tcn_conv->weight.reshape({C, C * kt}), tcn_conv->bias);  // [B, L', N, C]
+  // d. temporal conv over frames.
+  const auto u = temporal_conv(g.transpose(2, 3), *tcn_conv, opt.pad);  // [B, L', N, C]
+  const int64_t Lo = u.size(1);
   auto z = tcn_bn->forward(u);
   if (opt.relu_out) z = torch::relu(z);
   auto r = res_bn->forward(res_conv->forward(f));
   // Valid padding: output frame t covers input frames t..t+kt-1; its residual is the newest one.
   if (Lo != L) r = r.narrow(1, L - Lo, Lo);
   return z + r;
+}
+
+torch::Tensor temporal_conv(const torch::Tensor& x, const TemporalConvImpl& conv, StgaeTemporalPad pad) {
+  // One GEMM: unfold gives the kt (zero-padded) frames under the kernel as
+  // [B, L', R, C, kt] (index c*kt + j after reshape = W's [Cout, Cin*kt] layout).
+  const int64_t kt = conv.weight.size(2), C = x.size(3), Cout = conv.weight.size(0);
+  auto gl = x;
+  if (pad == StgaeTemporalPad::Causal && kt > 1) {
+    gl = torch::constant_pad_nd(gl, {0, 0, 0, 0, kt - 1, 0});
+  } else if (pad == StgaeTemporalPad::Centred && kt > 1) {
+    gl = torch::constant_pad_nd(gl, {0, 0, 0, 0, (kt - 1) / 2, (kt - 1) / 2});
+  }
+  const int64_t Lo = gl.size(1) - kt + 1;
+  const auto stacked = gl.unfold(1, kt, 1).reshape({x.size(0), Lo, x.size(2), C * kt});
+  return torch::linear(stacked, conv.weight.reshape({Cout, C * kt}), conv.bias);
 }
 
 // ---- gate ------------------------------------------------------------------------------
@@ -212,6 +220,7 @@ torch::Tensor GateImpl::forward(const torch::Tensor& x) {
 
 StgaeNetImpl::StgaeNetImpl(const StgaeConfig& cfg) : config(cfg) {
   const auto nodes = stgae_topology(config);
+  const dgn::DgnGraph graph = config.family == StgaeFamily::Dgn ? dgn::dgn_graph(config) : dgn::DgnGraph{};
   // Holders "enc", "den", "pre" and the leaves under them follow the tensor name prefixes.
   auto parent_of = [&](const std::string& prefix, std::string& leaf) -> torch::nn::Module& {
     const std::string path = prefix.substr(0, prefix.size() - 1);  // without the final '.'
@@ -222,7 +231,7 @@ StgaeNetImpl::StgaeNetImpl(const StgaeConfig& cfg) : config(cfg) {
     }
     leaf = path.substr(dot + 1);
     const std::string group = path.substr(0, dot);
-    auto& slot = group == "enc" ? enc : group == "den" ? den : pre;
+    auto& slot = group == "enc" ? enc : group == "den" ? den : group == "tmp" ? tmp : pre;
     if (!slot) slot = register_module(group, std::make_shared<torch::nn::Module>());
     return *slot;
   };
@@ -247,8 +256,32 @@ StgaeNetImpl::StgaeNetImpl(const StgaeConfig& cfg) : config(cfg) {
       case StgaeNodeKind::Lift:
         pre_lift = parent.register_module(leaf, std::make_shared<Conv1x1Impl>(node.c_in, node.c_out, true));
         break;
+      case StgaeNodeKind::DgnBlock: {
+        auto b = parent.register_module(leaf, std::make_shared<DgnBlockImpl>(graph, node.c_in, node.c_out, node.linear));
+        (node.section == StgaeSection::Encoder ? dgn_enc : node.section == StgaeSection::Denoise ? dgn_den : dgn_pre)
+            .push_back(b);
+        break;
+      }
+      case StgaeNodeKind::DgnTemporal:
+        dgn_tmp.push_back(parent.register_module(leaf, std::make_shared<DgnTemporalImpl>(config, node)));
+        break;
+      case StgaeNodeKind::DgnLift:
+        dgn_lift = parent.register_module(leaf, std::make_shared<DgnLiftImpl>(node.c_in, config.horizon));
+        break;
     }
   };
+  if (config.family == StgaeFamily::Dgn) {
+    root = graph.root;
+    bone_source = torch::tensor(std::vector<int64_t>(graph.source.begin(), graph.source.end()), torch::kLong);
+    bone_target = torch::tensor(std::vector<int64_t>(graph.target.begin(), graph.target.end()), torch::kLong);
+    bone_path = torch::zeros({graph.n, graph.e}, torch::kFloat64);
+    for (int j = 0; j < graph.n; ++j)
+      for (int v = j; graph.bone_of[static_cast<size_t>(v)] >= 0;) {
+        const int b = graph.bone_of[static_cast<size_t>(v)];
+        bone_path[j][b] = 1.0;
+        v = graph.source[static_cast<size_t>(b)];
+      }
+  }
   // The prediction gate is made last, as it always was: the same seed gives the same
   // initial weights (and parameter order) as before.
   for (const auto& node : nodes)
@@ -257,9 +290,42 @@ StgaeNetImpl::StgaeNetImpl(const StgaeConfig& cfg) : config(cfg) {
     if (node.section == StgaeSection::PredictGate) add(node);
 }
 
+torch::Tensor StgaeNetImpl::dgn_combine(const torch::Tensor& dv, const torch::Tensor& de) const {
+  return 0.5 * (dv + dv.narrow(-2, root, 1) + torch::matmul(bone_path.to(de.scalar_type()), de));
+}
+
+TorchOutput StgaeNetImpl::dgn_forward(const torch::Tensor& fv, int pred_frames) {
+  auto v = fv;
+  auto e = fv.index_select(2, bone_target) - fv.index_select(2, bone_source);
+  for (auto& b : dgn_enc) std::tie(v, e) = b->forward(v, e);
+  for (auto& t : dgn_tmp) {
+    v = t->v->forward(v);
+    e = t->e->forward(e);
+  }
+  TorchOutput out;
+  auto dv = v, de = e;
+  for (auto& b : dgn_den) std::tie(dv, de) = b->forward(dv, de);
+  out.denoised_offset = dgn_combine(dv, de);
+  if (!config.predict) return out;
+  const int64_t Bn = v.size(0), L = v.size(1), N = v.size(2), E = e.size(2);
+  const int64_t P = std::max(pred_frames, 1);
+  if (P > L) throw std::invalid_argument("dgn: predictions at several frames need L >= P");
+  const int DT = config.horizon, C = config.latent_channels();
+  const auto pe = positional_encoding(DT, C, v.scalar_type()).view({1, DT, 1, C});
+  auto lift = [&](Conv1x1Impl& conv, const torch::Tensor& h, int64_t rows) {
+    return conv.forward(h.narrow(1, L - P, P).reshape({Bn * P, rows, C})).view({Bn * P, rows, DT, C}).permute({0, 2, 1, 3}) + pe;
+  };
+  auto qv = lift(*dgn_lift->v, v, N), qe = lift(*dgn_lift->e, e, E);
+  for (auto& b : dgn_pre) std::tie(qv, qe) = b->forward(qv, qe);
+  const auto q = dgn_combine(qv, qe);  // [B*P, DT, N, 3]
+  out.predicted_offset = P > 1 ? q.view({Bn, P, DT, N, 3}) : q.view({Bn, DT, N, 3});
+  return out;
+}
+
 TorchOutput StgaeNetImpl::forward(const torch::Tensor& features, int pred_frames) {
   if (features.dim() != 4 || features.size(3) != 6)
     throw std::invalid_argument("stgae: features must be [B, L, N, 6]");
+  if (config.family == StgaeFamily::Dgn) return dgn_forward(features, pred_frames);
   torch::Tensor H = features;
   for (auto& b : enc_blocks) H = b->forward(H);
   if (enc_gate) H = enc_gate->forward(H);

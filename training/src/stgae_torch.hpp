@@ -54,6 +54,9 @@ struct TemporalConvImpl : torch::nn::Module {
   torch::Tensor weight, bias;
 };
 
+// Temporal conv along dim 1 of [B, L, R, C] with the padding's zeros -> [B, L', R, Cout].
+torch::Tensor temporal_conv(const torch::Tensor& x, const TemporalConvImpl& conv, StgaeTemporalPad pad);
+
 // One STGCB: y = tcn(gcn(x)) + res(x), with A (+B) (+C) graph aggregation.
 struct BlockImpl : torch::nn::Module {
   BlockImpl(const StgaeConfig& config, const BlockOptions& options);
@@ -90,7 +93,12 @@ struct TorchOutput {
   torch::Tensor predicted_offset;
 };
 
-// The network: one module per node of hs::stgae_topology, registered under its prefix.
+struct DgnBlockImpl;
+struct DgnTemporalImpl;
+struct DgnLiftImpl;
+
+// The network of either family (config.family): one module per node of
+// hs::stgae_topology, registered under its prefix.
 struct StgaeNetImpl : torch::nn::Module {
   explicit StgaeNetImpl(const StgaeConfig& config);
   // features: [B, L, N, 6] (hs::train::input_features); centred models need L = T when
@@ -103,6 +111,19 @@ struct StgaeNetImpl : torch::nn::Module {
   std::shared_ptr<BlockImpl> pre_head;     // centred only
   std::shared_ptr<Conv1x1Impl> pre_lift;   // causal only
   std::shared_ptr<GateImpl> enc_gate, pre_gate;
+  // family dgn (dgn_torch.hpp)
+  std::shared_ptr<torch::nn::Module> tmp;
+  std::vector<std::shared_ptr<DgnBlockImpl>> dgn_enc, dgn_den, dgn_pre;
+  std::vector<std::shared_ptr<DgnTemporalImpl>> dgn_tmp;
+  std::shared_ptr<DgnLiftImpl> dgn_lift;
+  torch::Tensor bone_source, bone_target;  // [E] joint indices (long)
+  torch::Tensor bone_path;                 // [N, E]: 1 where bone e lies on the path root -> j
+  int64_t root = 0;
+
+ private:
+  TorchOutput dgn_forward(const torch::Tensor& features, int pred_frames);
+  // D = (D_v + D_v[root] + path D_e) / 2 over the last two axes' joints/bones.
+  torch::Tensor dgn_combine(const torch::Tensor& dv, const torch::Tensor& de) const;
 };
 
 // Positions from the offsets: Xhat = x + s*D, Yhat = Xhat[L-1] + s*Q ([B, L|DT, N, 3]).

@@ -22,6 +22,7 @@
 #include <cstdio>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <sstream>
 
 namespace hs::train {
@@ -249,7 +250,11 @@ TrainConfig parse_train_config(std::string_view text, const std::string& source)
   }
   tr.get("grad_clip", c.grad_clip);
   tr.get("threads", c.threads);
+  tr.get("freeze_graph_epochs", c.freeze_graph_epochs);
   tr.finish();
+  if (c.freeze_graph_epochs < 0) config_error(source, "train.freeze_graph_epochs", "must be >= 0");
+  if (c.freeze_graph_epochs > 0 && c.model.family != StgaeFamily::Dgn)
+    config_error(source, "train.freeze_graph_epochs", "applies to the dgn family only");
   if (c.epochs < 1 || c.epochs > 100000) config_error(source, "train.epochs", "must be >= 1");
   if (c.denoise_only_epochs < 0) config_error(source, "train.denoise_only_epochs", "must be >= 0");
   if (c.batch < 2 || c.batch > 65536) config_error(source, "train.batch", "must be in [2, 65536] (BatchNorm needs 2)");
@@ -276,6 +281,31 @@ TrainConfig parse_train_config(std::string_view text, const std::string& source)
   lo.get("predict", c.loss.predict);
   lo.get("predict_smooth", c.loss.predict_smooth);
   lo.get("relative_eps_mm", c.loss.relative_eps_mm);
+  if (const json* st = lo.raw("stages")) {
+    if (!st->is_array()) config_error(source, "loss.stages", "expected [{\"epoch\": e, \"bone\": w, ...}, ...]");
+    for (size_t i = 0; i < st->size(); ++i) {
+      const json& e = (*st)[i];
+      const std::string key = "loss.stages[" + std::to_string(i) + "]";
+      if (!e.is_object() || !e.contains("epoch") || !e.at("epoch").is_number_integer())
+        config_error(source, key, "expected {\"epoch\": e, \"bone\": w, ...}");
+      LossWeights w = c.loss;
+      const std::map<std::string, double*> fields = {{"pose", &w.pose},     {"bone", &w.bone},
+                                                     {"symmetry", &w.symmetry}, {"smooth", &w.smooth},
+                                                     {"predict", &w.predict}, {"predict_smooth", &w.predict_smooth}};
+      for (const auto& [k, v] : e.items()) {
+        if (k == "epoch") continue;
+        const auto it = fields.find(k);
+        if (it == fields.end()) config_error(source, key + "." + k, "unknown key");
+        if (!v.is_number() || !(v.get<double>() >= 0) || !std::isfinite(v.get<double>()))
+          config_error(source, key + "." + k, "expected a finite weight >= 0");
+        *it->second = v.get<double>();
+      }
+      const int first = e.at("epoch").get<int>();
+      if (first < 0 || (!c.loss_stages.empty() && first <= c.loss_stages.back().first))
+        config_error(source, key + ".epoch", "epochs must be >= 0 and increase");
+      c.loss_stages.emplace_back(first, w);
+    }
+  }
   lo.finish();
   if (!(c.loss.relative_eps_mm >= 0 && std::isfinite(c.loss.relative_eps_mm)))
     config_error(source, "loss.relative_eps_mm", "must be finite and >= 0");
@@ -290,6 +320,13 @@ TrainConfig read_train_config(const std::filesystem::path& path) {
   std::ostringstream s;
   s << f.rdbuf();
   return parse_train_config(s.str(), path.string());
+}
+
+LossWeights TrainConfig::loss_at(int epoch) const {
+  LossWeights w = loss;
+  for (const auto& [first, stage] : loss_stages)
+    if (epoch >= first) w = stage;
+  return w;
 }
 
 double learning_rate(const TrainConfig& config, int epoch) {
@@ -782,6 +819,10 @@ TrainResult train_stgae(const TrainConfig& cfg, const TrainOptions& opt, std::os
                     "epoch " + std::to_string(epoch + 1) + "/" + std::to_string(c.epochs) + (joint ? " [joint]" : " [denoise]"),
                     steps, std::isfinite(mean_epoch_s) ? mean_epoch_s * (c.epochs - epoch - 1) : std::numeric_limits<double>::quiet_NaN());
     double loss_sum = 0, data_s = 0;
+    TrainConfig staged = c;
+    staged.loss = c.loss_at(epoch);
+    const LossFn train_loss(staged);
+    const bool freeze_graph = epoch < c.freeze_graph_epochs;
     for (int s = 0; s < steps; ++s) {
       const auto td = Clock::now();
       while (builder.size() < c.batch) builder.add(sampler.draw(rng));
@@ -789,8 +830,12 @@ TrainResult train_stgae(const TrainConfig& cfg, const TrainOptions& opt, std::os
       data_s += since(td);
       adam.zero_grad();
       const auto out = net->forward(b.feat, c.predict_frames);
-      const auto l = loss(out, b, joint);
+      const auto l = train_loss(out, b, joint);
       l.total.backward();
+      if (freeze_graph)
+        for (auto& p : net->named_parameters(true))
+          if ((p.key().ends_with(".S") || p.key().ends_with(".T")) && p.value().grad().defined())
+            p.value().mutable_grad().zero_();
       if (c.grad_clip > 0) torch::nn::utils::clip_grad_norm_(net->parameters(), c.grad_clip);
       adam.step();
       const double lv = l.total.item<double>();

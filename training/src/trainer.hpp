@@ -61,7 +61,14 @@ struct TrainConfig {
   int sequence_length() const { return sequence > 0 ? sequence : model.window; }
   std::vector<std::pair<int, double>> lr{{0, 1e-3}};  // (first epoch, rate), piecewise constant
   double grad_clip = 5.0;                      // max global gradient norm (0 = off)
+  // DGN: the incidence matrices S, T stay at their initial values for these first epochs
+  // (the first stage of the published three-stage schedule).
+  int freeze_graph_epochs = 0;
   LossWeights loss;
+  // Training-loss weights from an epoch on ("loss.stages"); validation always uses `loss`,
+  // so that validation losses stay comparable across stages.
+  std::vector<std::pair<int, LossWeights>> loss_stages;
+  LossWeights loss_at(int epoch) const;
   int threads = 0;                             // torch intra-op threads, 0 = default
   std::string json;                            // the config text, kept in the model's meta
 };

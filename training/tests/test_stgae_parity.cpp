@@ -127,6 +127,40 @@ double max_offset(const torch::Tensor& base, const StgaeFrames<S>& e, double sca
   return m;
 }
 
+// The whole network: torch (float64, float32) against the engine's window mode on `raw`,
+// and export giving back exactly the imported float32 weights.
+void check_network_parity(const StgaeConfig& c, const StgaeWeights& w, const std::vector<Pose>& raw) {
+  const auto L = static_cast<int64_t>(raw.size());
+  StgaeNetImpl net(c);
+  import_weights(net, w);
+  net.eval();
+  const StgaeWeights back = export_weights(net);
+  for (const auto& [name, t] : w.tensors) {
+    CAPTURE(name);
+    CHECK(back.at(name).data == t.data);
+  }
+  net.to(torch::kFloat64);
+  const auto t64 = torch_forward(net, raw, torch::kFloat64);
+  const auto e64 = engine_forward<double>(c, w, raw);
+  CHECK(max_diff(t64.denoised, e64.denoised) <= 1e-9);
+  // The comparison is not vacuous: the model changes its input.
+  CHECK(max_offset(t64.filled, e64.denoised, c.shape_scale_m) > 1e-3);
+  if (c.predict) {
+    REQUIRE(e64.predicted.rows() == c.horizon);
+    CHECK(max_diff(t64.predicted, e64.predicted) <= 1e-9);
+  }
+  net.to(torch::kFloat32);
+  const auto t32 = torch_forward(net, raw, torch::kFloat32);
+  const auto e32 = engine_forward<float>(c, w, raw);
+  const double scale = std::max(1.0, max_offset(t64.filled, e64.denoised, c.shape_scale_m));
+  CHECK(max_diff(t32.denoised, e32.denoised) / c.shape_scale_m <= 1e-4 * scale);
+  if (c.predict) {
+    const double pscale = std::max(1.0, max_offset(t64.filled.narrow(0, L - 1, 1).expand({c.horizon, kJointCount, 3}),
+                                                    e64.predicted, c.shape_scale_m));
+    CHECK(max_diff(t32.predicted, e32.predicted) / c.shape_scale_m <= 1e-4 * pscale);
+  }
+}
+
 const char* pad_name(StgaePadding p) { return p == StgaePadding::Causal ? "causal" : "centred"; }
 const char* att_name(StgaeAttention a, StgaeCVariant v) {
   if (a == StgaeAttention::A) return "A";
@@ -163,38 +197,7 @@ TEST_CASE("torch forward matches the Eigen window mode (float64 1e-9, float32 1e
           const int L = (pad == StgaePadding::Causal) ? 2 * c.window + 3 : (predict ? c.window : c.window + 2);
           const auto raw = raw_input(c, L, seed);
 
-          StgaeNetImpl net(c);
-          import_weights(net, w);
-          net.eval();
-
-          // Export gives back exactly the imported float32 weights.
-          const StgaeWeights back = export_weights(net);
-          for (const auto& [name, t] : w.tensors) {
-            CAPTURE(name);
-            CHECK(back.at(name).data == t.data);
-          }
-
-          net.to(torch::kFloat64);
-          const auto t64 = torch_forward(net, raw, torch::kFloat64);
-          const auto e64 = engine_forward<double>(c, w, raw);
-          CHECK(max_diff(t64.denoised, e64.denoised) <= 1e-9);
-          // The comparison is not vacuous: the model changes its input.
-          CHECK(max_offset(t64.filled, e64.denoised, c.shape_scale_m) > 1e-3);
-          if (predict) {
-            REQUIRE(e64.predicted.rows() == c.horizon);
-            CHECK(max_diff(t64.predicted, e64.predicted) <= 1e-9);
-          }
-
-          net.to(torch::kFloat32);
-          const auto t32 = torch_forward(net, raw, torch::kFloat32);
-          const auto e32 = engine_forward<float>(c, w, raw);
-          const double scale = std::max(1.0, max_offset(t64.filled, e64.denoised, c.shape_scale_m));
-          CHECK(max_diff(t32.denoised, e32.denoised) / c.shape_scale_m <= 1e-4 * scale);
-          if (predict) {
-            const double pscale = std::max(1.0, max_offset(t64.filled.narrow(0, L - 1, 1).expand({c.horizon, kJointCount, 3}),
-                                                            e64.predicted, c.shape_scale_m));
-            CHECK(max_diff(t32.predicted, e32.predicted) / c.shape_scale_m <= 1e-4 * pscale);
-          }
+          check_network_parity(c, w, raw);
         }
 }
 
@@ -370,8 +373,190 @@ TEST_CASE("every engine layer matches the torch module of its node in float64, a
             CHECK(max_diff(z, Y) <= 1e-9);
             break;
           }
+          case StgaeNodeKind::DgnBlock:
+          case StgaeNodeKind::DgnTemporal:
+          case StgaeNodeKind::DgnLift: FAIL("a Multi-STGAE topology holds no DGN node");
         }
         CHECK(Y.cwiseAbs().maxCoeff() > 1e-3);  // not vacuous
       }
     }
+}
+
+// ---- the DGN family (dgn_layers.hpp, dgn_torch.hpp) ----
+
+#include "dgn_torch.hpp"
+
+#include "handsteady/dgn_layers.hpp"
+
+namespace {
+
+StgaeConfig small_dgn(StgaePadding pad, DgnTemporal temporal, bool predict) {
+  StgaeConfig c;
+  c.family = StgaeFamily::Dgn;
+  c.gates = false;
+  c.window = 8;
+  c.horizon = 3;
+  c.temporal_kernel = 3;
+  c.encoder_channels = {6, 8, 8};
+  c.denoise_decoder_channels = {8, 8, 3};
+  c.predict_decoder_channels = {8, 3};
+  c.padding = pad;
+  c.temporal = temporal;
+  c.predict = predict;
+  return c;
+}
+
+const char* temporal_name(DgnTemporal t) { return t == DgnTemporal::Tcn ? "tcn" : "lstm"; }
+
+// (L*R) x C engine rows of one stream, from [1, L, R, C].
+stgae::Mat<double> rows_of(const torch::Tensor& t) { return to_engine(t); }
+
+}  // namespace
+
+TEST_CASE("DGN: torch forward matches the Eigen window mode (float64 1e-9, float32 1e-4), export = import") {
+  uint64_t seed = 900;
+  for (const auto pad : {StgaePadding::Causal, StgaePadding::Centred})
+    for (const auto temporal : {DgnTemporal::Tcn, DgnTemporal::Lstm})
+      for (const bool predict : {false, true}) {
+        const StgaeConfig c = small_dgn(pad, temporal, predict);
+        CAPTURE(pad_name(pad));
+        CAPTURE(temporal_name(temporal));
+        CAPTURE(predict);
+        const StgaeWeights w = nontrivial_weights(c, ++seed);
+        const int L = pad == StgaePadding::Causal ? 2 * c.window + 3 : c.window + 2;
+        const auto raw = raw_input(c, L, seed);
+        check_network_parity(c, w, raw);
+      }
+}
+
+TEST_CASE("DGN: predictions at the last P frames (training) are the engine's prediction at each of those frames") {
+  for (const auto temporal : {DgnTemporal::Tcn, DgnTemporal::Lstm}) {
+    CAPTURE(temporal_name(temporal));
+    const StgaeConfig c = small_dgn(StgaePadding::Causal, temporal, true);
+    const StgaeWeights w = nontrivial_weights(c, 78);
+    const int L = 2 * c.window + 3, P = 4;
+    const auto raw = raw_input(c, L, 78);
+    StgaeNetImpl net(c);
+    import_weights(net, w);
+    net.eval();
+    net.to(torch::kFloat64);
+    std::vector<double> feat(static_cast<size_t>(L) * kJointCount * 6), filled(static_cast<size_t>(L) * kJointCount * 3);
+    REQUIRE(input_features(raw, c.shape_scale_m, c.velocity_scale_m, feat.data(), filled.data()));
+    const auto f = torch::from_blob(feat.data(), {1, L, kJointCount, 6}, torch::kFloat64);
+    const auto x = torch::from_blob(filled.data(), {1, L, kJointCount, 3}, torch::kFloat64);
+    torch::NoGradGuard no_grad;
+    const auto out = net.forward(f, P);
+    const auto Y = predicted_positions(c, denoised_positions(c, x, out), out);
+    REQUIRE(Y.dim() == 5);
+    for (int p = 0; p < P; ++p) {
+      CAPTURE(p);
+      const std::vector<Pose> prefix(raw.begin(), raw.begin() + (L - P + p + 1));
+      CHECK(max_diff(Y[0][p], engine_forward<double>(c, w, prefix).predicted) <= 1e-9);
+    }
+  }
+}
+
+TEST_CASE("DGN: every engine layer matches the torch module of its node in float64, and streams as it windows") {
+  uint64_t seed = 1500;
+  const int N = kJointCount, E = kJointCount - 1;
+  for (const auto pad : {StgaePadding::Causal, StgaePadding::Centred})
+    for (const auto temporal : {DgnTemporal::Tcn, DgnTemporal::Lstm}) {
+      const StgaeConfig c = small_dgn(pad, temporal, true);
+      CAPTURE(pad_name(pad));
+      CAPTURE(temporal_name(temporal));
+      const StgaeWeights w = nontrivial_weights(c, ++seed);
+      StgaeNetImpl net(c);
+      import_weights(net, w);
+      net.eval();
+      net.to(torch::kFloat64);
+      const auto modules = net.named_modules("", /*include_self=*/false);
+      torch::NoGradGuard no_grad;
+      const bool causal = pad == StgaePadding::Causal;
+      for (const StgaeNode& node : stgae_topology(c)) {
+        CAPTURE(node.prefix);
+        const auto* found = modules.find(node.prefix.substr(0, node.prefix.size() - 1));
+        REQUIRE(found != nullptr);
+        const std::shared_ptr<torch::nn::Module> mod = *found;
+        const int64_t L = node.span == StgaeFrameSpan::Horizon ? c.horizon : 2 * c.window + 3;
+        torch::manual_seed(++seed);
+        const auto xv = torch::randn({1, L, N, node.c_in}, torch::kFloat64);
+        const auto xe = torch::randn({1, L, E, node.c_in}, torch::kFloat64);
+        const stgae::Mat<double> XV = rows_of(xv), XE = rows_of(xe);
+        switch (node.kind) {
+          case StgaeNodeKind::DgnBlock: {
+            const dgn::DgnBlockLayer<double> layer(c, node, w);
+            typename dgn::DgnBlockLayer<double>::Workspace ws;
+            stgae::Mat<double> YV, YE;
+            layer.forward(static_cast<int>(L), XV, XE, YV, YE, ws);
+            const auto [tv, te] = std::dynamic_pointer_cast<DgnBlockImpl>(mod)->forward(xv, xe);
+            CHECK(max_diff(tv, YV) <= 1e-9);
+            CHECK(max_diff(te, YE) <= 1e-9);
+            CHECK(YE.cwiseAbs().maxCoeff() > 1e-3);
+            auto st = layer.make_state();
+            const stgae::Mat<double> fv = XV.bottomRows(N), fe = XE.bottomRows(E);
+            layer.step(st, fv, fe);
+            CHECK((st.v - YV.bottomRows(N)).cwiseAbs().maxCoeff() <= 1e-12);
+            CHECK((st.e - YE.bottomRows(E)).cwiseAbs().maxCoeff() <= 1e-12);
+            break;
+          }
+          case StgaeNodeKind::DgnTemporal: {
+            const auto tm = std::dynamic_pointer_cast<DgnTemporalImpl>(mod);
+            for (const bool bones : {false, true}) {
+              CAPTURE(bones);
+              const int rows = bones ? E : N;
+              const dgn::DgnTemporalLayer<double> layer(c, node, w, bones ? "e." : "v.", rows);
+              const stgae::Mat<double>& X = bones ? XE : XV;
+              stgae::Mat<double> Y;
+              layer.forward(static_cast<int>(L), X, Y);
+              CHECK(max_diff((bones ? tm->e : tm->v)->forward(bones ? xe : xv), Y) <= 1e-9);
+              CHECK((Y - X).cwiseAbs().maxCoeff() > 1e-3);  // the layer adds something
+              if (causal) {
+                auto st = layer.make_state();
+                for (int pass = 0; pass < 2; ++pass) {  // the second after reset()
+                  st.reset();
+                  double worst = 0.0;
+                  for (int t = 0; t < L; ++t) {
+                    const stgae::Mat<double> xt = X.middleRows(t * rows, rows);
+                    layer.step(st, xt, t);
+                    worst = std::max(worst, (st.out - Y.middleRows(t * rows, rows)).cwiseAbs().maxCoeff());
+                  }
+                  CHECK(worst <= 1e-12);
+                }
+              }
+            }
+            break;
+          }
+          case StgaeNodeKind::DgnLift: {
+            const dgn::DgnLiftLayer<double> layer(c, node, w);
+            stgae::Mat<double> ZV, ZE;
+            layer.forward(static_cast<int>(L), XV, XE, ZV, ZE);
+            const auto lm = std::dynamic_pointer_cast<DgnLiftImpl>(mod);
+            const int64_t C = node.c_in, DT = c.horizon;
+            const auto zv = lm->v->forward(xv.select(1, L - 1)).view({1, N, DT, C}).permute({0, 2, 1, 3});
+            const auto ze = lm->e->forward(xe.select(1, L - 1)).view({1, E, DT, C}).permute({0, 2, 1, 3});
+            CHECK(max_diff(zv, ZV) <= 1e-9);
+            CHECK(max_diff(ze, ZE) <= 1e-9);
+            break;
+          }
+          default: FAIL("a DGN topology holds DGN nodes only");
+        }
+      }
+    }
+}
+
+TEST_CASE("DGN: the incidence matrices start as D^-1 S0, D^-1 T0 and the bone stream chains from the root") {
+  const StgaeConfig c = small_dgn(StgaePadding::Causal, DgnTemporal::Tcn, false);
+  const dgn::DgnGraph g = dgn::dgn_graph(c);
+  REQUIRE(g.e == g.n - 1);
+  // Every row of S + T sums to 1 (each vertex's incident bones share its degree).
+  CHECK(((g.S + g.T).rowwise().sum().array() - 1.0).abs().maxCoeff() <= 1e-12);
+  // Offsets that are a pure bone change at one bone move that bone's subtree by half.
+  stgae::Mat<double> dv = stgae::Mat<double>::Zero(g.n, 3), de = stgae::Mat<double>::Zero(g.e, 3), d;
+  const int b = g.bone_of[static_cast<size_t>(idx(Joint::IndexProximal))];
+  de(b, 0) = 1.0;
+  dgn::dgn_combine(g, 1, dv, de, d);
+  CHECK(d(idx(Joint::IndexProximal), 0) == doctest::Approx(0.5));
+  CHECK(d(idx(Joint::IndexTip), 0) == doctest::Approx(0.5));
+  CHECK(d(idx(Joint::MiddleTip), 0) == doctest::Approx(0.0));
+  CHECK(d(idx(Joint::IndexMetacarpal), 0) == doctest::Approx(0.0));
 }

@@ -270,6 +270,7 @@ struct Prepared {
   Cell cell;
   std::string tuned_key;
   std::array<HandSeries, 2> input;
+  std::array<HandSeries, 2> clean;  // the truth at the input's rows (sets with truth)
   std::shared_ptr<const Track> truth;
 };
 
@@ -300,6 +301,7 @@ Prepared prepare(const Dataset& d, const Cell& cell, const NoiseCell* noise, con
   for (const Hand h : {Hand::Left, Hand::Right}) {
     const auto hi = static_cast<size_t>(h);
     HandSeries in = resample_irregular(shaped[hi], cell.rate_hz, s + 17 * static_cast<uint64_t>(h));
+    p.clean[hi] = in;
     if (noise) {
       uint64_t k = 0;
       for (const CorruptionConfig& c : noise->steps(cell.rate_hz)) in = corrupt_series(in, c, s + 1000 * ++k + static_cast<uint64_t>(h));
@@ -322,6 +324,20 @@ Result score(const Prepared& p, const Method& m) {
     for (size_t k = 0; k < kHorizonsS.size(); ++k) est[k][hi] = std::move(outs[k]);
   }
   for (size_t k = 0; k < kHorizonsS.size(); ++k) r.at[k] = evaluate_tracks(*p.truth, to_track(est[k]), kHorizonsS[k]);
+  // The occluded joints only: every other joint of the answer is blanked.
+  std::array<HandSeries, 2> occ = est[0];
+  bool any = false;
+  for (size_t hi = 0; hi < 2; ++hi) {
+    if (p.clean[hi].size() != occ[hi].size()) continue;
+    for (size_t i = 0; i < occ[hi].size(); ++i)
+      for (int j = 0; j < kJointCount; ++j) {
+        const auto in = p.input[hi].pos[i].row(j), clean = p.clean[hi].pos[i].row(j);
+        const bool occluded = !in.allFinite() || (in - clean).norm() > kOccludedMm * 1e-3;
+        if (occluded && occ[hi].pos[i].row(j).allFinite()) any = true;
+        else occ[hi].pos[i].row(j).setConstant(std::numeric_limits<double>::quiet_NaN());
+      }
+  }
+  if (any) r.occluded = evaluate_tracks(*p.truth, to_track(occ), 0.0);
   return r;
 }
 

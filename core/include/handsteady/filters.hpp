@@ -42,13 +42,20 @@ class PoseFilter {
 // (One Euro's, and the layer's velocity estimate).
 double low_pass_alpha(double cutoff_hz, double te) noexcept;
 
-enum class FilterMethod { Raw, OneEuro, Desp, Kalman, Stgae };
-inline constexpr std::array<FilterMethod, 5> kFilterMethods = {FilterMethod::Raw, FilterMethod::OneEuro,
-                                                               FilterMethod::Desp, FilterMethod::Kalman,
-                                                               FilterMethod::Stgae};
-// "raw", "oneeuro", "desp", "kalman", "stgae"; throws std::invalid_argument otherwise.
+// Stgae and Dgn are the network methods: a model file of that family (StgaeConfig::family;
+// Multi-STGAE and its denoise-only STGAE models are "stgae") run by the same engine.
+enum class FilterMethod { Raw, OneEuro, Desp, Kalman, Stgae, Dgn };
+inline constexpr std::array<FilterMethod, 6> kFilterMethods = {FilterMethod::Raw,    FilterMethod::OneEuro,
+                                                               FilterMethod::Desp,   FilterMethod::Kalman,
+                                                               FilterMethod::Stgae,  FilterMethod::Dgn};
+// "raw", "oneeuro", "desp", "kalman", "stgae", "dgn"; throws std::invalid_argument otherwise.
 FilterMethod parse_filter_method(std::string_view name);
 std::string_view filter_method_name(FilterMethod m);
+constexpr bool is_network(FilterMethod m) noexcept { return m == FilterMethod::Stgae || m == FilterMethod::Dgn; }
+// The network method that runs a model of this family.
+FilterMethod network_method(const StgaeModel& model) noexcept;
+// The shipped model a network method loads when no model file is given (model_path.hpp).
+std::string_view default_model_file(FilterMethod m) noexcept;
 
 // Defaults are tuned lightly for hand tracking (metres, ~30 Hz, a few mm of jitter);
 // see docs/FILTERS.md.
@@ -73,7 +80,8 @@ struct KalmanParams {
   double init_speed_sd_mps = 1.0;   // prior sd of the velocity at (re)initialisation
 };
 
-// Multi-STGAE (docs/STGAE.md). Streaming needs a causal model; window mode (`offline`) a
+// The network methods (docs/STGAE.md, docs/DGN.md): the model's family must be the
+// method's (network_method). Streaming needs a causal model; window mode (`offline`) a
 // centred one, and runs over a whole recording (filter_series_with), not as a PoseFilter.
 struct StgaeParams {
   std::shared_ptr<const StgaeModel> model;  // required

@@ -11,7 +11,9 @@
 
 namespace hs {
 
-inline constexpr std::string_view kDefaultModelFile = "handsteady_xr26_causal.hsm";
+inline constexpr std::string_view kDefaultModelFile = "handsteady_xr26_causal.hsm";  // Multi-STGAE
+inline constexpr std::string_view kDgnModelFile = "handsteady_xr26_dgn.hsm";
+inline constexpr std::string_view kStgaeModelFile = "handsteady_xr26_stgae.hsm";  // denoise-only STGAE
 inline constexpr std::string_view kModelEnvVar = "HANDSTEADY_MODEL";
 
 struct ModelLookup {
@@ -22,8 +24,9 @@ struct ModelLookup {
   std::string describe_tried() const;
 };
 
-// Candidates: env, else each installed_dirs[i]/kDefaultModelFile.
-ModelLookup lookup_default_model(const std::vector<std::filesystem::path>& installed_dirs);
+// Candidates: env, else each installed_dirs[i]/file.
+ModelLookup lookup_default_model(const std::vector<std::filesystem::path>& installed_dirs,
+                                 std::string_view file = kDefaultModelFile);
 
 // Folder of the running executable (/proc/self/exe), empty when unknown.
 std::filesystem::path executable_dir();
@@ -33,6 +36,6 @@ std::filesystem::path installed_models_dir_for_executable();
 
 // The CLI's default model. Throws InputError (field "--model") naming every path tried
 // when none exists.
-std::filesystem::path default_model_path();
+std::filesystem::path default_model_path(std::string_view file = kDefaultModelFile);
 
 }  // namespace hs

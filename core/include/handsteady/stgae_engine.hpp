@@ -1,5 +1,5 @@
 #pragma once
-// Multi-STGAE inference in Eigen: window mode (whole sequence at once, the training graph)
+// Multi-STGAE and DGN inference in Eigen (the family is the config's): window mode (whole sequence at once, the training graph)
 // and streaming mode (causal model, one frame at a time from ring buffers, constant cost
 // per frame, no allocation after construction). The function computed is documented in
 // stgae_model.hpp; design notes in docs/STGAE.md.
@@ -71,8 +71,9 @@ class StgaeStream {
   long frames_pushed() const noexcept;  // since reset
   const StgaeConfig& config() const noexcept;
 
+  struct State;  // per-stream buffers and layer states, core/src/stgae_engine.cpp
+
  private:
-  struct State;
   std::shared_ptr<const StgaeNet<Scalar>> net_;
   std::unique_ptr<State> s_;
 };

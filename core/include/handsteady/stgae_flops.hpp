@@ -24,7 +24,7 @@
 namespace hs {
 
 struct StgaeFlops {
-  std::int64_t encoder = 0;  // enc blocks
+  std::int64_t encoder = 0;  // enc blocks (DGN: and the temporal layers)
   std::int64_t gates = 0;    // enc_gate and pre_gate
   std::int64_t denoise = 0;  // den blocks
   std::int64_t predict = 0;  // pre.lift (causal) or pre.head (centred), and the pre blocks

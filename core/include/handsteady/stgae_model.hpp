@@ -96,11 +96,19 @@
 
 namespace hs {
 
+// The network family a configuration describes: Multi-STGAE (this header's forward pass;
+// STGAE = the same with predict false and no gates) or the directed-graph refinement
+// network (dgn_model.hpp documents its forward pass).
+enum class StgaeFamily { MultiStgae, Dgn };
 enum class StgaePadding { Centred, Causal };
+// DGN temporal module: LSTM over each joint/bone (bidirectional when centred, forward only
+// when causal) or a residual temporal convolution (temporal_kernel).
+enum class DgnTemporal { Lstm, Tcn };
 enum class StgaeAttention { A, AB, ABC };
 enum class StgaeCVariant { Dot, Gat };
 
 struct StgaeConfig {
+  StgaeFamily family = StgaeFamily::MultiStgae;
   std::string skeleton = "xr26";  // hs::skeleton_by_name
   int window = 16;                // T, frames
   int horizon = 3;                // DT, frames predicted after the last input frame
@@ -114,6 +122,9 @@ struct StgaeConfig {
   StgaeCVariant c_variant = StgaeCVariant::Dot;
   bool gates = true;
   bool predict = true;            // false = denoise only (STGAE-style)
+  // DGN only (family dgn): the temporal module between encoder and decoders.
+  DgnTemporal temporal = DgnTemporal::Tcn;
+  int temporal_layers = 2;
   double shape_scale_m = 0.1;     // feature/offset unit of the wrist-relative shape
   double velocity_scale_m = 0.01; // feature unit of the per-frame displacement
   // Free-form JSON object (training data, epochs, metrics, ...), kept verbatim; "{}" if none.
@@ -123,10 +134,11 @@ struct StgaeConfig {
   int latent_channels() const { return encoder_channels.back(); }
 };
 
-// JSON keys: skeleton, window, horizon, rate_hz, encoder_channels, denoise_decoder_channels,
+// JSON keys: family ("multi-stgae"|"dgn"; written only for dgn), skeleton, window, horizon, rate_hz, encoder_channels, denoise_decoder_channels,
 // predict_decoder_channels, temporal_kernel, padding ("centred"|"causal"), attention
 // ("A"|"A+B"|"A+B+C"), c_variant ("dot"|"gat"), gates, predict, shape_scale_m,
-// velocity_scale_m, meta (object). Missing keys take the defaults above; unknown keys,
+// velocity_scale_m, meta (object); dgn also temporal ("lstm"|"tcn"), temporal_layers, and
+// refuses attention, c_variant and gates (they do not apply). Missing keys take the defaults above; unknown keys,
 // wrong types and invalid values throw InputError naming source and key.
 StgaeConfig parse_stgae_config(std::string_view json, const std::string& source = "");
 std::string to_json(const StgaeConfig& config);

@@ -1,5 +1,5 @@
 #pragma once
-// The Multi-STGAE network as a list of nodes, from the configuration alone: the one place
+// The network (Multi-STGAE or DGN, StgaeConfig::family) as a list of nodes, from the configuration alone: the one place
 // the topology is written. The tensor specs (stgae_tensor_specs), the FLOP count
 // (stgae_flops.hpp), the Eigen engine's net and the libtorch module (training/) are all
 // built from it. The function of each node kind: stgae_model.hpp (steps 2-4).
@@ -15,6 +15,10 @@ enum class StgaeNodeKind {
   Block,  // STGCB (step 2)
   Gate,   // spatio-temporal gate (step 3)
   Lift,   // 1x1 conv C -> DT*C from the newest frame (causal prediction, step 4)
+  // DGN (dgn_layers.hpp): each runs on both streams, joints (N rows) and bones (E = N-1).
+  DgnBlock,     // vertex update from incident edges, then edge update from end vertices
+  DgnTemporal,  // residual temporal conv or LSTM per joint and per bone
+  DgnLift,      // the newest latent frame -> DT frames, per stream
 };
 
 // Where a node sits in the dataflow of step 4 (nodes of one section run in list order).
@@ -25,6 +29,7 @@ enum class StgaeSection {
   PredictGate,    // on H, opens the prediction branch
   PredictInput,   // pre.lift (causal) or pre.head (centred): latent frames -> DT frames
   PredictDecoder, // pre blocks on the DT frames (+ positional encoding)
+  Temporal,       // DGN: temporal module between the encoder and both decoders
 };
 
 // Temporal padding of a block's temporal conv (step 2d).

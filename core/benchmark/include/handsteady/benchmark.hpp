@@ -83,10 +83,16 @@ struct Cell {
   std::string key() const;  // one line naming every coordinate
 };
 
+// A joint of an input row counts as occluded when it is missing or more than this far
+// from the truth (outliers, heavy noise): the DGN paper's claim is about those joints.
+inline constexpr double kOccludedMm = 10.0;
+
 struct Result {
   Cell cell;
   std::string method;
   std::array<Metrics, kHorizonsS.size()> at;  // per horizon
+  // H = 0 on the occluded joints of each row only (joint_samples = 0: none in this cell).
+  Metrics occluded;
 };
 
 // One Euro parameters tried by the tuning sweep, and their score.
