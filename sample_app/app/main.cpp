@@ -173,7 +173,10 @@ int run(const Options& opt) {
       last_seen_T = T;
     }
 
-    if (any) last_poses = poses;
+    // Each panel keeps its own hand as last seen: at the end of a recording one panel
+    // (the layer's, a frame behind on a loaded machine) may still show a hand the other lost.
+    for (size_t p = 0; p < poses.size(); ++p)
+      if (hs::any_joint_tracked(poses[p])) last_poses[p] = poses[p];
     draw(T, poses);
     if (opt.frames_every > 0 && frame % opt.frames_every == 0)
       hs::render::write_png(out / "frames" / fmt::format("frame_{:05d}.png", frame), renderer.read_pixels());
