@@ -201,11 +201,12 @@ TEST_CASE("torch forward matches the Eigen window mode (float64 1e-9, float32 1e
         }
 }
 
-TEST_CASE("predictions at the last P frames (training) are the engine's prediction at each of those frames") {
-  const StgaeConfig c = small_config(StgaePadding::Causal, StgaeAttention::ABC, StgaeCVariant::Dot, true, true);
-  const StgaeWeights w = nontrivial_weights(c, 77);
+// The training forward's predictions at its last P frames against the engine's window mode
+// over the frames up to each of them (float64, 1e-9).
+void check_p_frame_predictions(const StgaeConfig& c, uint64_t seed) {
+  const StgaeWeights w = nontrivial_weights(c, seed);
   const int L = 2 * c.window + 3, P = 4;
-  const auto raw = raw_input(c, L, 77);
+  const auto raw = raw_input(c, L, seed);
   StgaeNetImpl net(c);
   import_weights(net, w);
   net.eval();
@@ -223,10 +224,13 @@ TEST_CASE("predictions at the last P frames (training) are the engine's predicti
     CAPTURE(p);
     // The prediction at frame L - P + p is window mode over the frames up to it.
     const std::vector<Pose> prefix(raw.begin(), raw.begin() + (L - P + p + 1));
-    const auto e = engine_forward<double>(c, w, prefix);
-    CHECK(max_diff(Y[0][p], e.predicted) <= 1e-9);
+    CHECK(max_diff(Y[0][p], engine_forward<double>(c, w, prefix).predicted) <= 1e-9);
   }
   CHECK_THROWS_AS(net.forward(f, L + 1), std::invalid_argument);
+}
+
+TEST_CASE("predictions at the last P frames (training) are the engine's prediction at each of those frames") {
+  check_p_frame_predictions(small_config(StgaePadding::Causal, StgaeAttention::ABC, StgaeCVariant::Dot, true, true), 77);
 }
 
 TEST_CASE("a one-weight change is visible to the parity comparison") {
@@ -432,27 +436,7 @@ TEST_CASE("DGN: torch forward matches the Eigen window mode (float64 1e-9, float
 TEST_CASE("DGN: predictions at the last P frames (training) are the engine's prediction at each of those frames") {
   for (const auto temporal : {DgnTemporal::Tcn, DgnTemporal::Lstm}) {
     CAPTURE(temporal_name(temporal));
-    const StgaeConfig c = small_dgn(StgaePadding::Causal, temporal, true);
-    const StgaeWeights w = nontrivial_weights(c, 78);
-    const int L = 2 * c.window + 3, P = 4;
-    const auto raw = raw_input(c, L, 78);
-    StgaeNetImpl net(c);
-    import_weights(net, w);
-    net.eval();
-    net.to(torch::kFloat64);
-    std::vector<double> feat(static_cast<size_t>(L) * kJointCount * 6), filled(static_cast<size_t>(L) * kJointCount * 3);
-    REQUIRE(input_features(raw, c.shape_scale_m, c.velocity_scale_m, feat.data(), filled.data()));
-    const auto f = torch::from_blob(feat.data(), {1, L, kJointCount, 6}, torch::kFloat64);
-    const auto x = torch::from_blob(filled.data(), {1, L, kJointCount, 3}, torch::kFloat64);
-    torch::NoGradGuard no_grad;
-    const auto out = net.forward(f, P);
-    const auto Y = predicted_positions(c, denoised_positions(c, x, out), out);
-    REQUIRE(Y.dim() == 5);
-    for (int p = 0; p < P; ++p) {
-      CAPTURE(p);
-      const std::vector<Pose> prefix(raw.begin(), raw.begin() + (L - P + p + 1));
-      CHECK(max_diff(Y[0][p], engine_forward<double>(c, w, prefix).predicted) <= 1e-9);
-    }
+    check_p_frame_predictions(small_dgn(StgaePadding::Causal, temporal, true), 78);
   }
 }
 
