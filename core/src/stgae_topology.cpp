@@ -69,6 +69,18 @@ std::vector<TensorSpec> dgn_block_tensors(const StgaeConfig& c, const std::strin
 
 // DGN topology (dgn_layers.hpp): enc blocks, temporal layers, den blocks, and (predict)
 // the lift and the pre blocks on the DT frames.
+// The causal prediction's lift (either family): the newest latent frame to `horizon` frames.
+StgaeNode lift_node(StgaeNodeKind kind, int C, int horizon) {
+  StgaeNode n;
+  n.kind = kind;
+  n.section = StgaeSection::PredictInput;
+  n.prefix = "pre.lift.";
+  n.c_in = C;
+  n.c_out = horizon * C;
+  n.span = StgaeFrameSpan::Newest;
+  return n;
+}
+
 std::vector<StgaeNode> dgn_topology(const StgaeConfig& c) {
   const bool causal = c.padding == StgaePadding::Causal;
   const int C = c.latent_channels();
@@ -115,13 +127,7 @@ std::vector<StgaeNode> dgn_topology(const StgaeConfig& c) {
   }
   blocks(StgaeSection::Denoise, "den", c.denoise_decoder_channels, StgaeFrameSpan::Input);
   if (!c.predict) return nodes;
-  StgaeNode n;
-  n.kind = StgaeNodeKind::DgnLift;
-  n.section = StgaeSection::PredictInput;
-  n.prefix = "pre.lift.";
-  n.c_in = C;
-  n.c_out = c.horizon * C;
-  n.span = StgaeFrameSpan::Newest;
+  StgaeNode n = lift_node(StgaeNodeKind::DgnLift, C, c.horizon);
   for (const char* s : {"v.", "e."}) {
     n.tensors.push_back({n.prefix + s + "weight", {n.c_out, C}});
     n.tensors.push_back({n.prefix + s + "bias", {n.c_out}});
@@ -181,13 +187,7 @@ std::vector<StgaeNode> stgae_topology(const StgaeConfig& c) {
   // The causal prediction reads the newest frame only.
   if (c.gates) gate(StgaeSection::PredictGate, "pre_gate.", causal ? StgaeFrameSpan::Newest : StgaeFrameSpan::Input);
   if (causal) {
-    StgaeNode n;
-    n.kind = StgaeNodeKind::Lift;
-    n.section = StgaeSection::PredictInput;
-    n.prefix = "pre.lift.";
-    n.c_in = C;
-    n.c_out = c.horizon * C;
-    n.span = StgaeFrameSpan::Newest;
+    StgaeNode n = lift_node(StgaeNodeKind::Lift, C, c.horizon);
     n.tensors = {{"pre.lift.weight", {n.c_out, C}}, {"pre.lift.bias", {n.c_out}}};
     nodes.push_back(std::move(n));
   } else {

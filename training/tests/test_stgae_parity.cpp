@@ -26,7 +26,8 @@ using namespace hs::train;
 
 namespace {
 
-StgaeConfig small_config(StgaePadding pad, StgaeAttention att, StgaeCVariant cv, bool gates, bool predict) {
+// The sizes every small test network shares (either family).
+StgaeConfig small_sizes(StgaePadding pad, bool predict) {
   StgaeConfig c;
   c.window = 8;
   c.horizon = 3;
@@ -35,10 +36,15 @@ StgaeConfig small_config(StgaePadding pad, StgaeAttention att, StgaeCVariant cv,
   c.denoise_decoder_channels = {8, 8, 3};
   c.predict_decoder_channels = {8, 3};
   c.padding = pad;
+  c.predict = predict;
+  return c;
+}
+
+StgaeConfig small_config(StgaePadding pad, StgaeAttention att, StgaeCVariant cv, bool gates, bool predict) {
+  StgaeConfig c = small_sizes(pad, predict);
   c.attention = att;
   c.c_variant = cv;
   c.gates = gates;
-  c.predict = predict;
   return c;
 }
 
@@ -395,18 +401,10 @@ TEST_CASE("every engine layer matches the torch module of its node in float64, a
 namespace {
 
 StgaeConfig small_dgn(StgaePadding pad, DgnTemporal temporal, bool predict) {
-  StgaeConfig c;
+  StgaeConfig c = small_sizes(pad, predict);
   c.family = StgaeFamily::Dgn;
   c.gates = false;
-  c.window = 8;
-  c.horizon = 3;
-  c.temporal_kernel = 3;
-  c.encoder_channels = {6, 8, 8};
-  c.denoise_decoder_channels = {8, 8, 3};
-  c.predict_decoder_channels = {8, 3};
-  c.padding = pad;
   c.temporal = temporal;
-  c.predict = predict;
   return c;
 }
 
