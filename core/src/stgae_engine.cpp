@@ -53,6 +53,40 @@ struct StgaeNet<S>::Impl {
   Mat<S> pe;                          // DT x C
 };
 
+// The layer of one topology node, in its section: Multi-STGAE / STGAE ...
+template <class S>
+void add_node(typename StgaeNet<S>::Impl& m, const StgaeConfig& c, const StgaeNode& node, const StgaeWeights& w) {
+  switch (node.section) {
+    case StgaeSection::Temporal: break;  // DGN only
+    case StgaeSection::Encoder: m.enc.emplace_back(c, node, w); break;
+    case StgaeSection::Denoise: m.den.emplace_back(c, node, w); break;
+    case StgaeSection::PredictDecoder: m.pre.emplace_back(c, node, w); break;
+    case StgaeSection::EncoderGate: m.enc_gate.emplace(c, node, w); break;
+    case StgaeSection::PredictGate: m.pre_gate.emplace(c, node, w); break;
+    case StgaeSection::PredictInput:
+      if (node.kind == StgaeNodeKind::Lift) m.lift.emplace(c, node, w);
+      else m.head.emplace(c, node, w);
+      break;
+  }
+}
+
+// ... and DGN.
+template <class S>
+void add_node(DgnParts<S>& d, const StgaeConfig& c, const StgaeNode& node, const StgaeWeights& w) {
+  switch (node.section) {
+    case StgaeSection::Encoder: d.enc.emplace_back(c, node, w); break;
+    case StgaeSection::Denoise: d.den.emplace_back(c, node, w); break;
+    case StgaeSection::PredictDecoder: d.pre.emplace_back(c, node, w); break;
+    case StgaeSection::Temporal:
+      d.tv.emplace_back(c, node, w, "v.", d.graph.n);
+      d.te.emplace_back(c, node, w, "e.", d.graph.e);
+      break;
+    case StgaeSection::PredictInput: d.lift.emplace(c, node, w); break;
+    case StgaeSection::EncoderGate:
+    case StgaeSection::PredictGate: break;  // none in a DGN
+  }
+}
+
 template <class S>
 StgaeNet<S>::StgaeNet(const StgaeConfig& c, const StgaeWeights& w) : impl_(std::make_unique<Impl>()) {
   validate_stgae_config(c);
@@ -68,37 +102,10 @@ StgaeNet<S>::StgaeNet(const StgaeConfig& c, const StgaeWeights& w) : impl_(std::
   m.shape = static_cast<S>(c.shape_scale_m);
   m.inv_shape = static_cast<S>(1.0 / c.shape_scale_m);
   m.inv_vel = static_cast<S>(1.0 / c.velocity_scale_m);
-  if (c.family == StgaeFamily::Dgn) {
-    auto& d = m.dgn.emplace();
-    d.graph = dgn::dgn_graph(c);
-    for (const StgaeNode& node : stgae_topology(c)) {
-      switch (node.section) {
-        case StgaeSection::Encoder: d.enc.emplace_back(c, node, w); break;
-        case StgaeSection::Denoise: d.den.emplace_back(c, node, w); break;
-        case StgaeSection::PredictDecoder: d.pre.emplace_back(c, node, w); break;
-        case StgaeSection::Temporal:
-          d.tv.emplace_back(c, node, w, "v.", d.graph.n);
-          d.te.emplace_back(c, node, w, "e.", d.graph.e);
-          break;
-        case StgaeSection::PredictInput: d.lift.emplace(c, node, w); break;
-        case StgaeSection::EncoderGate:
-        case StgaeSection::PredictGate: break;  // none in a DGN
-      }
-    }
-  }
-  for (const StgaeNode& node : c.family == StgaeFamily::Dgn ? std::vector<StgaeNode>{} : stgae_topology(c)) {
-    switch (node.section) {
-      case StgaeSection::Temporal: break;  // DGN only
-      case StgaeSection::Encoder: m.enc.emplace_back(c, node, w); break;
-      case StgaeSection::Denoise: m.den.emplace_back(c, node, w); break;
-      case StgaeSection::PredictDecoder: m.pre.emplace_back(c, node, w); break;
-      case StgaeSection::EncoderGate: m.enc_gate.emplace(c, node, w); break;
-      case StgaeSection::PredictGate: m.pre_gate.emplace(c, node, w); break;
-      case StgaeSection::PredictInput:
-        if (node.kind == StgaeNodeKind::Lift) m.lift.emplace(c, node, w);
-        else m.head.emplace(c, node, w);
-        break;
-    }
+  if (c.family == StgaeFamily::Dgn) m.dgn.emplace().graph = dgn::dgn_graph(c);
+  for (const StgaeNode& node : stgae_topology(c)) {
+    if (m.dgn) add_node<S>(*m.dgn, c, node, w);
+    else add_node<S>(m, c, node, w);
   }
   m.pe.resize(m.DT, m.C);
   for (int i = 0; i < m.DT; ++i)
