@@ -309,12 +309,19 @@ struct StgaeStream<S>::State {
 
 namespace {
 
-// One frame of a DGN stream: features in s.f -> s.den_out, s.pred_out.
+// One streamed frame's offsets from its input, in units of the shape scale: denoised
+// (N x 3) and predicted ((DT*N) x 3; null without prediction).
 template <class S>
-void push_dgn(const typename StgaeNet<S>::Impl& m, typename StgaeStream<S>::State& s) noexcept {
+struct FrameOffsets {
+  const Mat<S>* denoised;
+  const Mat<S>* predicted;
+};
+
+// One frame of a DGN stream: features in s.f -> its offsets.
+template <class S>
+FrameOffsets<S> push_dgn(const typename StgaeNet<S>::Impl& m, typename StgaeStream<S>::State& s) noexcept {
   const auto& g = *m.dgn;
   auto& d = *s.dgn;
-  const int n = m.n;
   dgn::dgn_bone_features(g.graph, 1, s.f, d.fe);
   const Mat<S>* v = &s.f;
   const Mat<S>* e = &d.fe;
@@ -337,17 +344,38 @@ void push_dgn(const typename StgaeNet<S>::Impl& m, typename StgaeStream<S>::Stat
     e = &d.den[i].e;
   }
   dgn::dgn_combine(g.graph, 1, *v, *e, d.d);
-  for (int j = 0; j < n; ++j)
-    for (int c = 0; c < 3; ++c) s.den_out[static_cast<size_t>(3 * j + c)] = s.x(j, c) + m.shape * d.d(j, c);
-  if (m.DT == 0) return;
+  if (m.DT == 0) return {&d.d, nullptr};
   g.lift->step(*d.lift, *hv, *he);
   const auto [qv, qe] = dgn_predict_decoder<S>(m, d.lift->zv, d.lift->ze, d.pre);
   dgn::dgn_combine(g.graph, m.DT, *qv, *qe, d.q);
-  for (int i = 0; i < m.DT; ++i)
-    for (int j = 0; j < n; ++j)
-      for (int c = 0; c < 3; ++c)
-        s.pred_out[static_cast<size_t>((i * n + j) * 3 + c)] =
-            s.den_out[static_cast<size_t>(3 * j + c)] + m.shape * d.q(Eigen::Index(i) * n + j, c);
+  return {&d.d, &d.q};
+}
+
+// One frame of a Multi-STGAE / STGAE stream: features in s.f -> its offsets.
+template <class S>
+FrameOffsets<S> push_stgae(const typename StgaeNet<S>::Impl& m, typename StgaeStream<S>::State& s) noexcept {
+  const Mat<S>* cur = &s.f;
+  for (size_t i = 0; i < m.enc.size(); ++i) {
+    m.enc[i].step(s.enc[i], *cur, s.t);
+    cur = &s.enc[i].out;
+  }
+  if (m.enc_gate) {
+    m.enc_gate->step(*s.enc_gate, *cur, s.t);
+    cur = &s.enc_gate->out;
+  }
+  const Mat<S>* h = cur;
+  for (size_t i = 0; i < m.den.size(); ++i) {
+    m.den[i].step(s.den[i], *cur, s.t);
+    cur = &s.den[i].out;
+  }
+  if (m.DT == 0) return {cur, nullptr};
+  const Mat<S>* p = h;
+  if (m.pre_gate) {
+    m.pre_gate->step(*s.pre_gate, *h, s.t);
+    p = &s.pre_gate->out;
+  }
+  m.lift->step(*s.lift, *p, s.t);
+  return {cur, &predict_decoder<S>(m, s.lift->out, s.pre_out, s.pre_ws)};
 }
 
 }  // namespace
@@ -428,35 +456,12 @@ bool StgaeStream<S>::push(std::span<const S> frame) noexcept {
   if (!s.fill.fill(frame.data(), s.x)) return false;
   stgae_frame_features(s.x, s.t > 0 ? &s.xprev : nullptr, m.anchors.wrist, m.inv_shape, m.inv_vel, s.f);
   s.xprev = s.x;
-  if (m.dgn) {
-    push_dgn<S>(m, s);
-    ++s.t;
-    return true;
-  }
-  const Mat<S>* cur = &s.f;
-  for (size_t i = 0; i < m.enc.size(); ++i) {
-    m.enc[i].step(s.enc[i], *cur, s.t);
-    cur = &s.enc[i].out;
-  }
-  if (m.enc_gate) {
-    m.enc_gate->step(*s.enc_gate, *cur, s.t);
-    cur = &s.enc_gate->out;
-  }
-  const Mat<S>* h = cur;
-  for (size_t i = 0; i < m.den.size(); ++i) {
-    m.den[i].step(s.den[i], *cur, s.t);
-    cur = &s.den[i].out;
-  }
+  const FrameOffsets<S> o = m.dgn ? push_dgn<S>(m, s) : push_stgae<S>(m, s);
+  const Mat<S>& d = *o.denoised;
   for (int j = 0; j < n; ++j)
-    for (int c = 0; c < 3; ++c) s.den_out[static_cast<size_t>(3 * j + c)] = s.x(j, c) + m.shape * (*cur)(j, c);
-  if (m.DT > 0) {
-    const Mat<S>* p = h;
-    if (m.pre_gate) {
-      m.pre_gate->step(*s.pre_gate, *h, s.t);
-      p = &s.pre_gate->out;
-    }
-    m.lift->step(*s.lift, *p, s.t);
-    const Mat<S>& q = predict_decoder<S>(m, s.lift->out, s.pre_out, s.pre_ws);
+    for (int c = 0; c < 3; ++c) s.den_out[static_cast<size_t>(3 * j + c)] = s.x(j, c) + m.shape * d(j, c);
+  if (o.predicted) {
+    const Mat<S>& q = *o.predicted;
     for (int i = 0; i < m.DT; ++i)
       for (int j = 0; j < n; ++j)
         for (int c = 0; c < 3; ++c)
