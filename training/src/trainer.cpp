@@ -422,7 +422,8 @@ struct Losses {
 
 class LossFn {
  public:
-  LossFn(const TrainConfig& c) : c_(c) {
+  // The model's config (referenced: it outlives the loss) and the weights of this loss.
+  LossFn(const StgaeConfig& model, const LossWeights& weights) : model_(model), w_(weights) {
     const auto& s = xr_hand_skeleton();
     bone_a_ = edge_index(s.bones, true);
     bone_b_ = edge_index(s.bones, false);
@@ -431,16 +432,16 @@ class LossFn {
   }
   Losses operator()(const TorchOutput& out, const Batch& b, bool with_pred) const {
     const int T = static_cast<int>(b.x.size(1));
-    const auto X = denoised_positions(c_.model, b.x, out);
+    const auto X = denoised_positions(model_, b.x, out);
     const auto Xt = b.truth.narrow(1, 0, T);
     Losses l;
     // Relative weighting: each window's denoising terms divided by its input's own squared
     // error (+ eps^2), normalised to mean 1 over the batch, so nearly clean windows count
     // as much as heavily corrupted ones (a model must never be worse than clean input).
     torch::Tensor w;
-    if (c_.loss.relative_eps_mm > 0) {
+    if (w_.relative_eps_mm > 0) {
       torch::NoGradGuard no_grad;
-      const double eps_cm = c_.loss.relative_eps_mm * 0.1;
+      const double eps_cm = w_.relative_eps_mm * 0.1;
       w = 1.0 / ((b.x - Xt).pow(2).sum(-1).mean({1, 2}) * kCm2 + eps_cm * eps_cm);
       w = w / w.mean();
     }
@@ -449,35 +450,35 @@ class LossFn {
       return (err.reshape({err.size(0), -1}).mean(1) * w).mean();
     };
     auto pose = wmean((X - Xt).pow(2)) * kCm2;
-    auto total = c_.loss.pose * pose;
+    auto total = w_.pose * pose;
     l.pose = pose.item<double>();
-    if (c_.loss.bone > 0) {
+    if (w_.bone > 0) {
       auto bone = wmean(edge_error(X, Xt, bone_a_, bone_b_)) * kCm2;
-      total = total + c_.loss.bone * bone;
+      total = total + w_.bone * bone;
       l.bone = bone.item<double>();
     }
-    if (c_.loss.symmetry > 0) {
+    if (w_.symmetry > 0) {
       auto sym = wmean(edge_error(X, Xt, sym_a_, sym_b_)) * kCm2;
-      total = total + c_.loss.symmetry * sym;
+      total = total + w_.symmetry * sym;
       l.sym = sym.item<double>();
     }
-    if (c_.loss.smooth > 0 && T >= 3) {
+    if (w_.smooth > 0 && T >= 3) {
       auto smooth = wmean((second_difference(X, 1) - second_difference(Xt, 1)).pow(2)) * kCm2;
-      total = total + c_.loss.smooth * smooth;
+      total = total + w_.smooth * smooth;
       l.smooth = smooth.item<double>();
     }
-    if (with_pred && c_.model.predict) {
-      const int DT = c_.model.horizon;
-      const auto Y = predicted_positions(c_.model, X, out);
+    if (with_pred && model_.predict) {
+      const int DT = model_.horizon;
+      const auto Y = predicted_positions(model_, X, out);
       if (Y.dim() == 5) {
         // Predictions made at each of the last P frames: [B, P, DT, N, 3] against the truth
         // 1..DT frames after each.
         const int P = static_cast<int>(Y.size(1));
         const auto Yt = b.truth.narrow(1, T - P + 1, P + DT - 1).unfold(1, DT, 1).permute({0, 1, 4, 2, 3});
         auto pred = (Y - Yt).pow(2).mean() * kCm2;
-        total = total + c_.loss.predict * pred;
+        total = total + w_.predict * pred;
         l.pred = pred.item<double>();
-        if (c_.loss.predict_smooth > 0) {
+        if (w_.predict_smooth > 0) {
           // Along each path: denoised t-1, t, then the DT predictions.
           auto path = [&](const torch::Tensor& den, const torch::Tensor& fut) {
             return torch::cat({den.narrow(1, T - P - 1, P).unsqueeze(2), den.narrow(1, T - P, P).unsqueeze(2), fut}, 2);
@@ -487,12 +488,12 @@ class LossFn {
           if (P >= 3)  // each horizon over time
             ps = ps + (second_difference(Y, 1) - second_difference(Yt, 1)).pow(2).mean();
           ps = ps * kCm2;
-          total = total + c_.loss.predict_smooth * ps;
+          total = total + w_.predict_smooth * ps;
           l.pred_smooth = ps.item<double>();
         }
       } else {
         auto pred = (Y - b.truth.narrow(1, T, DT)).pow(2).mean() * kCm2;
-        total = total + c_.loss.predict * pred;
+        total = total + w_.predict * pred;
         l.pred = pred.item<double>();
       }
     }
@@ -509,7 +510,8 @@ class LossFn {
                                   const torch::Tensor& b) {
     return (lengths(X, a, b) - lengths(Xt, a, b)).pow(2);  // [B, T, edges], m^2
   }
-  const TrainConfig& c_;
+  const StgaeConfig& model_;
+  LossWeights w_;
   torch::Tensor bone_a_, bone_b_, sym_a_, sym_b_;
 };
 
@@ -766,7 +768,11 @@ TrainResult train_stgae(const TrainConfig& cfg, const TrainOptions& opt, std::os
   log << "model: " << n_params << " parameters, " << (c.model.padding == StgaePadding::Causal ? "causal" : "centred")
       << ", T " << T << ", DT " << DT << ", training sequences of " << L << " frames, threads " << torch::get_num_threads() << "\n";
   torch::optim::Adam adam(net->parameters(), torch::optim::AdamOptions(learning_rate(c, 0)));
-  const LossFn loss(c);
+  const LossFn loss(c.model, c.loss);  // validation: the base weights, whatever the stage
+  // DGN: the incidence matrices S, T, whose gradients the first stage zeroes.
+  std::vector<torch::Tensor> graph_params;
+  for (const auto& p : net->named_parameters(true))
+    if (p.key().ends_with(".S") || p.key().ends_with(".T")) graph_params.push_back(p.value());
 
   int start_epoch = 0;
   double best = std::numeric_limits<double>::infinity();
@@ -819,9 +825,7 @@ TrainResult train_stgae(const TrainConfig& cfg, const TrainOptions& opt, std::os
                     "epoch " + std::to_string(epoch + 1) + "/" + std::to_string(c.epochs) + (joint ? " [joint]" : " [denoise]"),
                     steps, std::isfinite(mean_epoch_s) ? mean_epoch_s * (c.epochs - epoch - 1) : std::numeric_limits<double>::quiet_NaN());
     double loss_sum = 0, data_s = 0;
-    TrainConfig staged = c;
-    staged.loss = c.loss_at(epoch);
-    const LossFn train_loss(staged);
+    const LossFn train_loss(c.model, c.loss_at(epoch));
     const bool freeze_graph = epoch < c.freeze_graph_epochs;
     for (int s = 0; s < steps; ++s) {
       const auto td = Clock::now();
@@ -833,9 +837,8 @@ TrainResult train_stgae(const TrainConfig& cfg, const TrainOptions& opt, std::os
       const auto l = train_loss(out, b, joint);
       l.total.backward();
       if (freeze_graph)
-        for (auto& p : net->named_parameters(true))
-          if ((p.key().ends_with(".S") || p.key().ends_with(".T")) && p.value().grad().defined())
-            p.value().mutable_grad().zero_();
+        for (auto& p : graph_params)
+          if (p.grad().defined()) p.mutable_grad().zero_();
       if (c.grad_clip > 0) torch::nn::utils::clip_grad_norm_(net->parameters(), c.grad_clip);
       adam.step();
       const double lv = l.total.item<double>();
