@@ -6,6 +6,7 @@
 #include "train_data.hpp"
 #include "trainer.hpp"
 
+#include "handsteady/dgn_layers.hpp"
 #include "handsteady/error.hpp"
 #include "handsteady/skeleton.hpp"
 #include "handsteady/stgae_model.hpp"
@@ -318,6 +319,12 @@ TEST_CASE("training config errors name the key") {
   CHECK(error_field(R"({"model": {}, "data": {"train_subjects": [1, 5]}})") == "data.val_subjects");
   CHECK(error_field(R"({"train": {}})") == "model");
   CHECK(error_field(R"({"model": {"window": "x"}})") == "window");
+  // The DGN schedule's keys.
+  CHECK(error_field(R"({"model": {}, "train": {"freeze_graph_epochs": 2}})") == "train.freeze_graph_epochs");
+  CHECK(error_field(R"({"model": {}, "loss": {"stages": [{"epoch": 0, "bones": 1}]}})") == "loss.stages[0].bones");
+  CHECK(error_field(R"({"model": {}, "loss": {"stages": [{"epoch": 0, "bone": -1}]}})") == "loss.stages[0].bone");
+  CHECK(error_field(R"({"model": {}, "loss": {"stages": [{"epoch": 3}, {"epoch": 3}]}})") == "loss.stages[1].epoch");
+  CHECK(error_field(R"({"model": {}, "loss": {"stages": [{"bone": 1}]}})") == "loss.stages[0]");
   const auto c = parse_train_config(R"({"model": {}, "train": {"lr": [[0, 0.01], [5, 0.001]]}})");
   CHECK(learning_rate(c, 4) == 0.01);
   CHECK(learning_rate(c, 5) == 0.001);
@@ -379,6 +386,62 @@ TEST_CASE("two tiny epochs on synthetic motion: the loss decreases, the model fi
 }
 
 #ifdef HS_CLI_PATH
+// A tiny DGN with the three-stage schedule's keys; `freeze` first epochs keep S, T.
+std::string tiny_dgn_config(int freeze) {
+  return R"({
+  "model": {"family": "dgn", "window": 8, "horizon": 2, "temporal_kernel": 3, "padding": "causal",
+            "temporal": "tcn", "temporal_layers": 1, "encoder_channels": [6, 8, 8],
+            "denoise_decoder_channels": [8, 8, 3], "predict_decoder_channels": [8, 3]},
+  "data": {"synthetic_takes": 4, "synthetic_seconds": 8},
+  "corruption": {"mix": [{"presets": "tracker", "weight": 1}], "val_presets": ["tracker"]},
+  "train": {"seed": 3, "epochs": 1, "denoise_only_epochs": 0, "batch": 16, "windows_per_epoch": 64,
+            "lr": [[0, 0.01]], "threads": 1, "freeze_graph_epochs": )" +
+         std::to_string(freeze) + R"(},
+  "loss": {"bone": 1, "smooth": 0.1, "stages": [{"epoch": 0, "bone": 0.2, "smooth": 0}, {"epoch": 2, "bone": 0.6}]}
+})";
+}
+
+TEST_CASE("DGN training: loss stages apply from their epoch, the first stage keeps S and T at D^-1 S0, D^-1 T0") {
+  const TrainConfig frozen = parse_train_config(tiny_dgn_config(1), "dgn");
+  // Stages: each from its epoch on, unnamed weights from the base; validation keeps the base.
+  CHECK(frozen.loss_at(0).bone == 0.2);
+  CHECK(frozen.loss_at(0).smooth == 0.0);
+  CHECK(frozen.loss_at(1).bone == 0.2);
+  CHECK(frozen.loss_at(2).bone == 0.6);
+  CHECK(frozen.loss_at(2).smooth == 0.1);
+  CHECK(frozen.loss_at(7).pose == frozen.loss.pose);
+  CHECK(frozen.loss.bone == 1.0);
+
+  const auto dir = temp_dir("dgn");
+  // The incidence matrices of the trained model against their initial values.
+  auto graph_change = [&](const TrainConfig& config, const std::string& name) {
+    TrainOptions opt;
+    opt.out = dir / name;
+    opt.progress = false;
+    std::ostringstream log;
+    (void)train_stgae(config, opt, log);
+    const auto model = load_hsm(opt.out, true);
+    const dgn::DgnGraph g = dgn::dgn_graph(model->config);
+    double change = 0.0;
+    int matrices = 0;
+    for (const auto& [key, t] : model->weights.tensors) {
+      const bool is_s = key.ends_with(".S"), is_t = key.ends_with(".T");
+      if (!is_s && !is_t) continue;
+      ++matrices;
+      const Eigen::MatrixXd& init = is_s ? g.S : g.T;
+      REQUIRE(t.data.size() == static_cast<size_t>(init.size()));
+      for (int r = 0; r < init.rows(); ++r)
+        for (int c = 0; c < init.cols(); ++c)
+          change = std::max(change, std::abs(static_cast<double>(t.data[static_cast<size_t>(r * init.cols() + c)]) - init(r, c)));
+    }
+    CHECK(matrices > 0);
+    return change;
+  };
+  CHECK(graph_change(frozen, "frozen.hsm") <= 1e-6);  // float32 in the file
+  CHECK(graph_change(parse_train_config(tiny_dgn_config(0), "dgn"), "free.hsm") > 1e-4);
+  std::filesystem::remove_all(dir);
+}
+
 TEST_CASE("handsteady train runs from the command line and reports bad configs") {
   const auto dir = temp_dir("cli");
   {
