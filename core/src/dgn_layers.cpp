@@ -207,21 +207,28 @@ typename DgnTemporalLayer<S>::State DgnTemporalLayer<S>::make_state() const {
 }
 
 template <class S>
+void DgnTemporalLayer<S>::lstm_frame(const Lstm& p, const Eigen::Ref<const Mat<S>>& x, Mat<S>& z, Mat<S>& h,
+                                     Mat<S>& c) noexcept {
+  const auto H = static_cast<int>(h.cols());
+  z.noalias() = x * p.wih;
+  z.noalias() += h * p.whh;
+  z.rowwise() += p.b;
+  for (Eigen::Index r = 0; r < h.rows(); ++r)
+    for (int k = 0; k < H; ++k) {
+      const S ig = sigmoid(z(r, k)), fg = sigmoid(z(r, H + k)), gg = std::tanh(z(r, 2 * H + k)),
+              og = sigmoid(z(r, 3 * H + k));
+      c(r, k) = fg * c(r, k) + ig * gg;
+      h(r, k) = og * std::tanh(c(r, k));
+    }
+}
+
+template <class S>
 void DgnTemporalLayer<S>::lstm_run(const Lstm& p, int L, const Mat<S>& x, Mat<S>& y, int col0, bool backward) const {
   const auto H = static_cast<int>(p.whh.rows());
   Mat<S> h = Mat<S>::Zero(rows_, H), c = Mat<S>::Zero(rows_, H), z(rows_, 4 * H);
   for (int i = 0; i < L; ++i) {
     const int t = backward ? L - 1 - i : i;
-    z.noalias() = x.middleRows(Eigen::Index(t) * rows_, rows_) * p.wih;
-    z.noalias() += h * p.whh;
-    z.rowwise() += p.b;
-    for (int r = 0; r < rows_; ++r)
-      for (int k = 0; k < H; ++k) {
-        const S ig = sigmoid(z(r, k)), fg = sigmoid(z(r, H + k)), gg = std::tanh(z(r, 2 * H + k)),
-                og = sigmoid(z(r, 3 * H + k));
-        c(r, k) = fg * c(r, k) + ig * gg;
-        h(r, k) = og * std::tanh(c(r, k));
-      }
+    lstm_frame(p, x.middleRows(Eigen::Index(t) * rows_, rows_), z, h, c);
     y.block(Eigen::Index(t) * rows_, col0, rows_, H) += h;
   }
 }
@@ -249,17 +256,7 @@ void DgnTemporalLayer<S>::forward(int L, const Mat<S>& x, Mat<S>& y) const {
 template <class S>
 void DgnTemporalLayer<S>::step(State& st, const Mat<S>& x, long t) const noexcept {
   if (!tcn_) {
-    const int H = h_;
-    st.z.noalias() = x * fwd_.wih;
-    st.z.noalias() += st.h * fwd_.whh;
-    st.z.rowwise() += fwd_.b;
-    for (int r = 0; r < rows_; ++r)
-      for (int k = 0; k < H; ++k) {
-        const S ig = sigmoid(st.z(r, k)), fg = sigmoid(st.z(r, H + k)), gg = std::tanh(st.z(r, 2 * H + k)),
-                og = sigmoid(st.z(r, 3 * H + k));
-        st.c(r, k) = fg * st.c(r, k) + ig * gg;
-        st.h(r, k) = og * std::tanh(st.c(r, k));
-      }
+    lstm_frame(fwd_, x, st.z, st.h, st.c);
     st.out = x + st.h;
     return;
   }

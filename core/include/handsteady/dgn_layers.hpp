@@ -121,6 +121,8 @@ class DgnTemporalLayer {
     RVec<S> b;
   };
   void lstm_run(const Lstm& p, int L, const Mat<S>& x, Mat<S>& y, int col0, bool backward) const;
+  // One LSTM frame for every row: gates z (rows x 4H: i, f, g, o) from x and h, then h, c in place.
+  static void lstm_frame(const Lstm& p, const Eigen::Ref<const Mat<S>>& x, Mat<S>& z, Mat<S>& h, Mat<S>& c) noexcept;
 
   StgaeNode node_;
   int rows_ = 0, c_ = 0, k_ = 1, h_ = 0;
