@@ -250,7 +250,7 @@ StgaeOutput<S> stgae_window_forward(const StgaeNet<S>& net, const StgaeFrames<S>
                                            std::to_string(3 * n));
   if (in.rows() < 1) throw InputError(SourceLocation{}, "STGAE input has no frames");
   const int L = static_cast<int>(in.rows());
-  if (!m.dgn && !m.causal && m.DT > 0 && L != m.T)
+  if (m.config.centred_head() && L != m.T)
     throw InputError(SourceLocation{}, "the centred prediction model needs exactly " + std::to_string(m.T) +
                                            " frames, got " + std::to_string(L));
   const Eigen::Index LN = Eigen::Index(L) * n;

@@ -38,8 +38,7 @@ StgaeFlops stgae_flops_per_frame(const StgaeConfig& config) {
 
 StgaeFlops stgae_flops_per_window(const StgaeConfig& config, int frames) {
   if (frames < 1) throw std::invalid_argument("stgae_flops_per_window: frames must be >= 1");
-  if (config.family == StgaeFamily::MultiStgae && config.padding == StgaePadding::Centred && config.predict &&
-      frames != config.window)
+  if (config.centred_head() && frames != config.window)
     throw std::invalid_argument("stgae_flops_per_window: the centred prediction model needs exactly " +
                                 std::to_string(config.window) + " frames, got " + std::to_string(frames));
   return count(config, frames);

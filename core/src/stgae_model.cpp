@@ -192,7 +192,7 @@ void validate_stgae_config(const StgaeConfig& c, const std::string& source) {
   }
   if (c.window < 1 || c.window > 4096) config_error(source, "window", "must be in [1, 4096]");
   if (c.predict && (c.horizon < 1 || c.horizon > 1024)) config_error(source, "horizon", "must be in [1, 1024]");
-  if (c.family == StgaeFamily::MultiStgae && c.predict && c.padding == StgaePadding::Centred && c.horizon > c.window)
+  if (c.centred_head() && c.horizon > c.window)
     config_error(source, "horizon", "the centred prediction head needs horizon <= window");
   if (!(c.rate_hz > 0.0 && c.rate_hz <= 1000.0)) config_error(source, "rate_hz", "must be in (0, 1000]");
   if (c.temporal_kernel < 1 || c.temporal_kernel % 2 == 0 || c.temporal_kernel > 255)

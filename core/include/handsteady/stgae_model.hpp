@@ -132,6 +132,11 @@ struct StgaeConfig {
 
   int joint_count() const;        // N of the skeleton
   int latent_channels() const { return encoder_channels.back(); }
+  // Multi-STGAE's published centred prediction head (T latent frames -> DT): it reads
+  // exactly `window` frames, so window mode needs L = T and horizon <= window.
+  bool centred_head() const {
+    return family == StgaeFamily::MultiStgae && predict && padding == StgaePadding::Centred;
+  }
 };
 
 // JSON keys: family ("multi-stgae"|"dgn"; written only for dgn), skeleton, window, horizon, rate_hz, encoder_channels, denoise_decoder_channels,
