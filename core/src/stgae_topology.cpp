@@ -67,8 +67,6 @@ std::vector<TensorSpec> dgn_block_tensors(const StgaeConfig& c, const std::strin
   return out;
 }
 
-// DGN topology (dgn_layers.hpp): enc blocks, temporal layers, den blocks, and (predict)
-// the lift and the pre blocks on the DT frames.
 // The causal prediction's lift (either family): the newest latent frame to `horizon` frames.
 StgaeNode lift_node(StgaeNodeKind kind, int C, int horizon) {
   StgaeNode n;
@@ -81,6 +79,8 @@ StgaeNode lift_node(StgaeNodeKind kind, int C, int horizon) {
   return n;
 }
 
+// DGN topology (dgn_layers.hpp): enc blocks, temporal layers, den blocks, and (predict)
+// the lift and the pre blocks on the DT frames.
 std::vector<StgaeNode> dgn_topology(const StgaeConfig& c) {
   const bool causal = c.padding == StgaePadding::Causal;
   const int C = c.latent_channels();
