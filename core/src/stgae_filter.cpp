@@ -28,7 +28,7 @@ constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 struct PhaseOutput {
   std::vector<float> path, den_prev;
   double t = 0.0;
-  bool have = false, have_prev = false, warm = false;
+  bool have = false, have_prev = false;
 };
 
 class StgaeFilter final : public PoseFilter {
@@ -40,7 +40,6 @@ class StgaeFilter final : public PoseFilter {
     if (n_ != kJointCount) throw std::invalid_argument("the STGAE filter needs a 26-joint (xr26) model");
     period_ = 1.0 / c.rate_hz;
     dt_frames_ = c.predict ? c.horizon : 0;
-    warm_frames_ = c.window;
     const size_t fs = static_cast<size_t>(3 * n_);
     prev_.assign(fs, kNaN);
     cur_.assign(fs, kNaN);
@@ -119,7 +118,7 @@ class StgaeFilter final : public PoseFilter {
     for (int back = 0; back < std::min(2, phases_); ++back) {
       const int k = (latest_ - back + phases_) % phases_;
       const PhaseOutput& p = out_[static_cast<size_t>(k)];
-      if (back > 0 && !(p.have && p.warm)) continue;
+      if (back > 0 && !p.have) continue;
       const double w = back == 0 ? 1.0 : kOlderPhaseWeight;
       for (int j = 0; j < n_; ++j) {
         if (last_t_ - seen_t_[static_cast<size_t>(j)] > kModelResetGapS) continue;  // expired / never seen
@@ -185,7 +184,7 @@ class StgaeFilter final : public PoseFilter {
   void restart_grid() noexcept {
     for (auto& stream : streams_) stream->reset();
     for (auto& b : bounds_) b.reset();
-    for (PhaseOutput& o : out_) o.have = o.have_prev = o.warm = false;
+    for (PhaseOutput& o : out_) o.have = o.have_prev = false;
     have_grid_ = false;
     locked_ = false;
     latest_ = -1;
@@ -225,11 +224,11 @@ class StgaeFilter final : public PoseFilter {
     if (bounded_) bounds_[static_cast<size_t>(phase)].apply(frame, o.path);
     o.t = t;
     o.have = true;
-    // Answer from the newest frame of a warmed-up stream; a phase started later (after the
-    // rate was known) serves once it has a window of history, so cold starts do not jitter.
-    const bool warm = stream.frames_pushed() >= warm_frames_ || phase == 0;
-    o.warm = warm;
-    if (warm || latest_ < 0) latest_ = phase;
+    // A stream started later (once the rate is known) answers from its first frame, as
+    // stream 0 did: held back until it had a window of history, the rows it would have
+    // answered were extrapolated from an older stream for the first T periods of every
+    // (re)start, which cost more than its short history (docs/STGAE.md).
+    latest_ = phase;
   }
 
   std::shared_ptr<const StgaeModel> model_;
@@ -238,7 +237,7 @@ class StgaeFilter final : public PoseFilter {
   std::array<PhaseOutput, kStgaeMaxPhases> out_;
   std::array<CorrectionBound, kStgaeMaxPhases> bounds_;  // one per stream: its frames are a period apart
   bool bounded_ = true;
-  int n_ = 0, dt_frames_ = 0, warm_frames_ = 1, phases_ = 1, latest_ = -1, valid_rows_ = 0;
+  int n_ = 0, dt_frames_ = 0, phases_ = 1, latest_ = -1, valid_rows_ = 0;
   double period_ = 1.0 / 30.0, sub_period_ = 1.0 / 30.0;
   std::vector<float> prev_, cur_, interp_;
   std::array<double, kJointCount> seen_t_{};
