@@ -673,3 +673,63 @@ TEST_CASE("PoseFilter adapter: irregular times near the model rate lock the fram
     }
   }
 }
+
+TEST_CASE("PoseFilter adapter: the input rate is watched, not only guessed from the first rows") {
+  // A runtime that starts at 30 Hz and goes on at 90 Hz (or whose first intervals are
+  // stretched by tracking start): once the median of the last intervals has asked for
+  // three locked streams long enough, the adapter starts over in that mode and then
+  // answers exactly like a filter that saw only the 90 Hz rows (the small model's streams
+  // remember a window of frames, so both depend on the same last frames).
+  const auto c = small_causal();
+  const auto model = small_model(c, 9);
+  const double period = 1.0 / c.rate_hz;
+  constexpr int kSlow = 30, kFast = 150;
+  const auto src = hs::synthetic_hand_input(c, kSlow + kFast, 43);
+  auto switched = hs::make_stgae_filter(model, 0.0, 0, false);
+  auto fast_only = hs::make_stgae_filter(model, 0.0, 0, false);
+  auto one = hs::make_stgae_filter(model, 0.0, 1, false);
+  double t = 1.0;
+  for (int n = 0; n < kSlow + kFast; ++n) {
+    t += n < kSlow ? period : period / 3.0;
+    REQUIRE(switched->push(t, pose_at(src, n)));
+    REQUIRE(one->push(t, pose_at(src, n)));
+    if (n >= kSlow) REQUIRE(fast_only->push(t, pose_at(src, n)));
+  }
+  hs::Pose a, b, o;
+  switched->estimate(t, a);
+  fast_only->estimate(t, b);
+  one->estimate(t, o);
+  MESSAGE("after the switch: vs a filter started at 90 Hz " << (a - b).cwiseAbs().maxCoeff() << " m, vs one stream "
+                                                            << (a - o).cwiseAbs().maxCoeff() << " m");
+  CHECK((a - b).cwiseAbs().maxCoeff() < 1e-6);
+  CHECK((a - o).cwiseAbs().maxCoeff() > 1e-4);
+}
+
+TEST_CASE("PoseFilter adapter: input slower than the model within its trained speeds locks too") {
+  // 23 Hz under a 30 Hz model (a HoloLens 2 log): frames 1.3 periods apart are what a
+  // model trained at speed factor 1.33 has seen, so each sample is a frame at its own time;
+  // 20 Hz (1.5 periods) stays on the model's grid.
+  const auto c = small_causal();
+  const auto model = small_model(c, 11);
+  const double period = 1.0 / c.rate_hz;
+  const int kRows = 4 + 3 * c.window + 12;
+  const auto src = hs::synthetic_hand_input(c, kRows, 47);
+  const auto answers_are_frames = [&](double step) {
+    auto f = hs::make_stgae_filter(model, 0.0, 0, false);
+    hs::StgaeStream<float> ref(model->net);
+    hs::Pose out;
+    double worst = 0.0;
+    for (int n = 0; n < kRows; ++n) {
+      REQUIRE(f->push(1.0 + n * step, pose_at(src, n)));
+      ref.push(std::span<const float>(src.data() + static_cast<size_t>(n * 78), 78));
+      f->estimate(1.0 + n * step, out);
+      if (n < 4 + 3 * c.window) continue;  // the first rows run on the grid until the rate is known, and are remembered a while
+      for (size_t i = 0; i < 78; ++i)
+        worst = std::max(worst, std::abs(out(static_cast<int>(i / 3), static_cast<int>(i % 3)) -
+                                         static_cast<double>(ref.denoised()[i])));
+    }
+    return worst;
+  };
+  CHECK(answers_are_frames(1.3 * period) < 1e-6);
+  CHECK(answers_are_frames(1.5 * period) > 1e-4);
+}

@@ -56,6 +56,8 @@ class StgaeFilter final : public PoseFilter {
 
   void reset() noexcept override {
     restart_grid();
+    intervals_seen_ = 0;
+    mismatch_rows_ = 0;
     last_t_ = std::numeric_limits<double>::quiet_NaN();
     last_valid_t_ = -std::numeric_limits<double>::infinity();
     seen_t_.fill(-std::numeric_limits<double>::infinity());
@@ -72,23 +74,22 @@ class StgaeFilter final : public PoseFilter {
       any = any || ok;
     }
     if (!any) return true;  // hand lost in this frame: nothing to resample
-    // A tracking gap longer than kModelResetGapS: the history no longer describes the hand.
+    // A tracking gap longer than kModelResetGapS: the history no longer describes the hand
+    // (the sampling rate still does).
     if (have_grid_ && t - last_valid_t_ > kModelResetGapS) restart_grid();
+    else if (have_grid_) record_interval(t - last_valid_t_);
     last_valid_t_ = t;
     if (!have_grid_) {
-      grid_t0_ = t;  // the grid starts at the first sample, with one phase until the rate is known
-      phases_ = fixed_phases_ > 0 ? fixed_phases_ : 1;
-      sub_period_ = period_ / phases_;
-      ticks_ = 0;
-      first_t_ = t;
-      valid_rows_ = 1;
-      push_frame(0, cur_, t);
-      prev_ = cur_;
-      prev_t_ = t;
-      have_grid_ = true;
+      start_grid(t);
       return true;
     }
-    if (valid_rows_ < kRateRows && ++valid_rows_ == kRateRows) choose_phases(t);
+    if (valid_rows_ < kRateRows) {
+      if (++valid_rows_ == kRateRows) choose_mode(mode_for(median_interval()));
+    } else if (rate_changed()) {  // the runtime's rate is not what the first rows said: start over
+      restart_grid();
+      start_grid(t);
+      return true;
+    }
     if (locked_) {
       push_locked(t);
     } else {
@@ -148,12 +149,25 @@ class StgaeFilter final : public PoseFilter {
   double last_time() const noexcept override { return last_t_; }
 
  private:
-  // Rows seen before the phase count is chosen from their mean interval.
+  // Rows seen before the phase count is first chosen, from the median of their intervals.
   static constexpr int kRateRows = 4;
+  // The rate is then watched over the median of the last kRateWindow intervals; a mode
+  // that differs from the running one for kRateStreak rows in a row replaces it (a first
+  // interval stretched by tracking start, a runtime changing its rate).
+  static constexpr int kRateWindow = 16;
+  static constexpr int kRateStreak = 8;
   static constexpr double kOlderPhaseWeight = 0.5;
-  // Sample intervals within 20 % of a sub-period: 25-36 Hz, 50-72 Hz, 75-108 Hz and
-  // 100-144 Hz under a 30 Hz model, at speed factors the model was trained on (0.75-1.33).
-  static constexpr double kLockTolerance = 0.2;
+  // Sample intervals of 0.75-1.34 sub-periods lock: the speed factors the shipped models
+  // were trained on (0.75, 1, 1.33), so a locked stream sees frames the model has seen;
+  // 22-40 Hz, 45-80 Hz, 67-120 Hz and 90-160 Hz under a 30 Hz model.
+  static constexpr double kLockMin = 0.75, kLockMax = 1.34;
+
+  // How the adapter frames input of one sampling interval.
+  struct RateMode {
+    int phases = 1;
+    bool locked = false;
+    bool operator==(const RateMode&) const = default;
+  };
 
   // Locked to the samples: each sample is a frame at its own time, so the answer at a
   // sample is a frame denoised there, not one extrapolated from a grid tick up to a period
@@ -191,19 +205,67 @@ class StgaeFilter final : public PoseFilter {
   }
 
   // K = the input rate over the model rate, rounded, 1..kStgaeMaxPhases (unless fixed);
-  // called once per grid, while it runs one stream. Stream 0 keeps its history: its ticks
-  // t0 + k * period stay on the finer sub-grid (m = k * K). Input within kLockTolerance of
-  // K times the model rate locks the frames to the samples (push_locked); other rates
-  // (20 Hz under a 30 Hz model, 45 Hz) stay on the fixed grid.
-  void choose_phases(double t) noexcept {
-    const double mean_dt = (t - first_t_) / static_cast<double>(kRateRows - 1);
-    if (fixed_phases_ == 0) {
-      const int k = std::clamp(static_cast<int>(std::lround(period_ / mean_dt)), 1, kStgaeMaxPhases);
-      ticks_ *= k;
-      phases_ = k;
-      sub_period_ = period_ / k;
+  // intervals of kLockMin..kLockMax sub-periods lock the frames to the samples
+  // (push_locked); other rates (20 Hz under a 30 Hz model) stay on the fixed grid.
+  RateMode mode_for(double dt) const noexcept {
+    RateMode m;
+    m.phases = fixed_phases_ > 0 ? fixed_phases_
+                                 : std::clamp(static_cast<int>(std::lround(std::min(period_ / dt, 100.0))), 1, kStgaeMaxPhases);
+    const double r = dt * m.phases / period_;
+    m.locked = r >= kLockMin && r <= kLockMax;
+    return m;
+  }
+
+  // The first choice, while the grid runs one stream. Stream 0 keeps its history: its
+  // ticks t0 + k * period stay on the finer sub-grid (m = k * K).
+  void choose_mode(RateMode m) noexcept {
+    ticks_ *= m.phases / phases_;
+    phases_ = m.phases;
+    sub_period_ = period_ / phases_;
+    locked_ = m.locked;
+  }
+
+  // A grid from sample t. With the rate known (a restart after a gap, or a new rate), in
+  // its mode at once; otherwise with one stream until kRateRows rows have been seen.
+  void start_grid(double t) noexcept {
+    grid_t0_ = t;
+    ticks_ = 0;
+    phases_ = fixed_phases_ > 0 ? fixed_phases_ : 1;
+    sub_period_ = period_ / phases_;
+    locked_ = false;
+    valid_rows_ = 1;
+    mismatch_rows_ = 0;
+    if (intervals_seen_ >= kRateRows - 1) {
+      choose_mode(mode_for(median_interval()));
+      valid_rows_ = kRateRows;
     }
-    locked_ = std::abs(mean_dt / sub_period_ - 1.0) <= kLockTolerance;
+    push_frame(0, cur_, t);
+    prev_ = cur_;
+    prev_t_ = t;
+    have_grid_ = true;
+  }
+
+  void record_interval(double dt) noexcept {
+    intervals_[static_cast<size_t>(intervals_seen_ % kRateWindow)] = dt;
+    ++intervals_seen_;
+  }
+
+  // The median of the last kRateWindow intervals (of all of them while fewer).
+  double median_interval() const noexcept {
+    std::array<double, kRateWindow> v{};
+    const auto n = static_cast<size_t>(std::min<long>(intervals_seen_, kRateWindow));
+    std::copy(intervals_.begin(), intervals_.begin() + static_cast<std::ptrdiff_t>(n), v.begin());
+    const auto mid = v.begin() + static_cast<std::ptrdiff_t>(n / 2);
+    std::nth_element(v.begin(), mid, v.begin() + static_cast<std::ptrdiff_t>(n));
+    return *mid;
+  }
+
+  // Whether a full window of intervals has asked for another mode kRateStreak rows in a row.
+  bool rate_changed() noexcept {
+    if (intervals_seen_ < kRateWindow) return false;
+    const RateMode want = mode_for(median_interval());
+    mismatch_rows_ = want == RateMode{phases_, locked_} ? 0 : mismatch_rows_ + 1;
+    return mismatch_rows_ >= kRateStreak;
   }
 
   void push_frame(int phase, const std::vector<float>& frame, double t) noexcept {
@@ -237,12 +299,14 @@ class StgaeFilter final : public PoseFilter {
   std::array<PhaseOutput, kStgaeMaxPhases> out_;
   std::array<CorrectionBound, kStgaeMaxPhases> bounds_;  // one per stream: its frames are a period apart
   bool bounded_ = true;
-  int n_ = 0, dt_frames_ = 0, phases_ = 1, latest_ = -1, valid_rows_ = 0;
+  int n_ = 0, dt_frames_ = 0, phases_ = 1, latest_ = -1, valid_rows_ = 0, mismatch_rows_ = 0;
+  std::array<double, kRateWindow> intervals_{};  // ring of the last sample intervals (s)
+  long intervals_seen_ = 0;
   double period_ = 1.0 / 30.0, sub_period_ = 1.0 / 30.0;
   std::vector<float> prev_, cur_, interp_;
   std::array<double, kJointCount> seen_t_{};
   bool have_grid_ = false, locked_ = false;
-  double grid_t0_ = 0.0, prev_t_ = 0.0, first_t_ = 0.0, frame_t_ = 0.0;
+  double grid_t0_ = 0.0, prev_t_ = 0.0, frame_t_ = 0.0;
   long ticks_ = 0;
   double last_t_ = std::numeric_limits<double>::quiet_NaN();
   double last_valid_t_ = 0.0;
