@@ -6,6 +6,7 @@
 // and each input row is answered by a freshly denoised frame instead of a prediction up
 // to one model period ahead (whose error shows as a jump at every model tick).
 #include "handsteady/correction_bound.hpp"
+#include "handsteady/correction_gain.hpp"
 #include "handsteady/stgae_engine.hpp"
 #include "handsteady/stgae_filter.hpp"
 #include "handsteady/time_series.hpp"
@@ -56,6 +57,7 @@ class StgaeFilter final : public PoseFilter {
 
   void reset() noexcept override {
     restart_grid();
+    gain_.reset();
     intervals_seen_ = 0;
     mismatch_rows_ = 0;
     last_t_ = std::numeric_limits<double>::quiet_NaN();
@@ -65,6 +67,17 @@ class StgaeFilter final : public PoseFilter {
 
   bool push(double t, const Pose& observed) noexcept override {
     if (!std::isfinite(t) || (!std::isnan(last_t_) && t <= last_t_)) return false;
+    if (!push_row(t, observed)) return true;  // hand lost in this frame
+    if (bounded_ && latest_ >= 0) {
+      answer(t, ans_);
+      gain_.observe(t, std::span<const float>(cur_.data(), cur_.size()),
+                    std::span<const double>(ans_.data(), static_cast<size_t>(ans_.size())));
+    }
+    return true;
+  }
+
+  // One accepted row into the streams; false when it has no joint.
+  bool push_row(double t, const Pose& observed) noexcept {
     last_t_ = t;
     bool any = false;
     for (int j = 0; j < n_; ++j) {
@@ -73,7 +86,7 @@ class StgaeFilter final : public PoseFilter {
       if (ok) seen_t_[static_cast<size_t>(j)] = t;
       any = any || ok;
     }
-    if (!any) return true;  // hand lost in this frame: nothing to resample
+    if (!any) return false;  // hand lost in this frame: nothing to resample
     // A tracking gap longer than kModelResetGapS: the history no longer describes the hand
     // (the sampling rate still does).
     if (have_grid_ && t - last_valid_t_ > kModelResetGapS) restart_grid();
@@ -108,6 +121,19 @@ class StgaeFilter final : public PoseFilter {
   }
 
   void estimate(double t, Pose& out) const noexcept override {
+    answer(t, out);
+    if (!bounded_ || std::isnan(last_t_)) return;
+    // The correction gain is a denoiser's: its shift fades out over one model period ahead,
+    // so predictions keep the network's path (the input's noise the shift lets through
+    // made the 50 ms predictions jerkier: docs/STGAE.md "Correction gain").
+    const double w = std::max(0.0, 1.0 - (std::max(t, last_t_) - last_t_) / period_);
+    if (w <= 0.0) return;
+    for (int j = 0; j < n_; ++j)
+      for (int c = 0; c < 3; ++c) out(j, c) += w * gain_.shift(j, c);
+  }
+
+  // The streams' answer at t, before the correction gain.
+  void answer(double t, Pose& out) const noexcept {
     out = untracked_pose();
     if (latest_ < 0 || std::isnan(last_t_)) return;
     const double tq = std::max(t, last_t_);
@@ -198,6 +224,7 @@ class StgaeFilter final : public PoseFilter {
   void restart_grid() noexcept {
     for (auto& stream : streams_) stream->reset();
     for (auto& b : bounds_) b.reset();
+    gain_.restart();
     for (PhaseOutput& o : out_) o.have = o.have_prev = false;
     have_grid_ = false;
     locked_ = false;
@@ -299,6 +326,8 @@ class StgaeFilter final : public PoseFilter {
   std::array<PhaseOutput, kStgaeMaxPhases> out_;
   std::array<CorrectionBound, kStgaeMaxPhases> bounds_;  // one per stream: its frames are a period apart
   bool bounded_ = true;
+  CorrectionGain gain_;          // how much of the answer's correction to keep (with bounded_)
+  Pose ans_ = untracked_pose();  // the answer at the last row, before the gain
   int n_ = 0, dt_frames_ = 0, phases_ = 1, latest_ = -1, valid_rows_ = 0, mismatch_rows_ = 0;
   std::array<double, kRateWindow> intervals_{};  // ring of the last sample intervals (s)
   long intervals_seen_ = 0;

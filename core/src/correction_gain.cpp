@@ -1,0 +1,140 @@
+#include "handsteady/correction_gain.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace hs {
+
+namespace {
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+template <class T>
+bool finite3(const T* p) noexcept {
+  return std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]);
+}
+
+// Lagrange weights of the quadratic through times t1, t2, t3, evaluated at t0.
+std::array<double, 3> back_weights(double t0, double t1, double t2, double t3) noexcept {
+  return {(t0 - t2) * (t0 - t3) / ((t1 - t2) * (t1 - t3)), (t0 - t1) * (t0 - t3) / ((t2 - t1) * (t2 - t3)),
+          (t0 - t1) * (t0 - t2) / ((t3 - t1) * (t3 - t2))};
+}
+}  // namespace
+
+void CorrectionGain::reset() noexcept {
+  restart();
+  s_fr_ = s_lr_ = s_ff_ = s_fl_ = s_ll_ = s_rows_ = 0.0;
+  c2_ = c2_rows_ = 0.0;
+  gain_fast_ = gain_low_ = 1.0;
+}
+
+void CorrectionGain::restart() noexcept {
+  n_ = 0;
+  low_.fill(kNaN);
+  shift_.fill(0.0);
+}
+
+// Least squares of (reference - x) on the two parts with each gain in [0, 1]: the 2x2
+// normal equations, or projected coordinate descent when their optimum is outside.
+void CorrectionGain::solve() noexcept {
+  const double det = s_ff_ * s_ll_ - s_fl_ * s_fl_;
+  const bool regular = det > 1e-9 * s_ff_ * s_ll_ && det > 0.0;
+  double gf = regular ? (s_fr_ * s_ll_ - s_lr_ * s_fl_) / det : 0.0;
+  double gl = regular ? (s_lr_ * s_ff_ - s_fr_ * s_fl_) / det : 0.0;
+  if (!regular || gf < 0.0 || gf > 1.0 || gl < 0.0 || gl > 1.0) {
+    gf = std::clamp(gf, 0.0, 1.0);
+    gl = std::clamp(gl, 0.0, 1.0);
+    for (int it = 0; it < 4; ++it) {
+      if (s_ff_ > 0.0) gf = std::clamp((s_fr_ - gl * s_fl_) / s_ff_, 0.0, 1.0);
+      if (s_ll_ > 0.0) gl = std::clamp((s_lr_ - gf * s_fl_) / s_ll_, 0.0, 1.0);
+    }
+  }
+  gain_fast_ = gf;
+  gain_low_ = gl;
+}
+
+void CorrectionGain::observe(double t, std::span<const float> x, std::span<const double> answer) noexcept {
+  if (x.size() < kFs || answer.size() < kFs || !std::isfinite(t)) return;
+  Row& row = rows_[static_cast<size_t>(n_ % kRing)];
+  row.t = t;
+  std::copy(x.begin(), x.begin() + kFs, row.x.begin());
+  // The correction's part to scale: all of it within clip, none beyond twice that. The
+  // scale is winsorised, so that outliers do not set it.
+  const double clip = c2_rows_ >= 1.0 ? std::max(kGainClip * std::sqrt(c2_), kGainClipFloorM)
+                                      : std::numeric_limits<double>::infinity();
+  const double a = n_ > 0 ? 1.0 - std::exp(-(t - last_t_) / kGainBandS) : 1.0;
+  double c2_sum = 0.0;
+  int c2_n = 0;
+  for (size_t o = 0; o < kFs; o += 3) {
+    double* c = row.c.data() + o;
+    double* low = low_.data() + o;
+    if (!finite3(row.x.data() + o) || !finite3(answer.data() + o)) {
+      for (size_t k = 0; k < 3; ++k) c[k] = low[k] = row.low[o + k] = kNaN;
+      continue;
+    }
+    double n2 = 0.0;
+    for (size_t k = 0; k < 3; ++k) {
+      c[k] = answer[o + k] - static_cast<double>(row.x[o + k]);
+      n2 += c[k] * c[k];
+    }
+    c2_sum += std::min(n2, 4.0 * clip * clip);
+    ++c2_n;
+    const double n = std::sqrt(n2);
+    const double part = n <= clip ? 1.0 : std::max(0.0, 2.0 - n / clip);
+    for (size_t k = 0; k < 3; ++k) {
+      c[k] *= part;
+      low[k] = std::isfinite(low[k]) ? low[k] + a * (c[k] - low[k]) : c[k];
+      row.low[o + k] = low[k];
+    }
+  }
+  if (c2_n > 0) {
+    c2_rows_ = std::min(c2_rows_ + 1.0, kGainRows);
+    c2_ += (c2_sum / c2_n - c2_) / c2_rows_;
+  }
+  last_t_ = t;
+  // The row three back against the quadratic back from the three rows since.
+  if (n_ >= kRing - 1) {
+    const Row& r0 = rows_[static_cast<size_t>((n_ - 3) % kRing)];
+    const Row& r1 = rows_[static_cast<size_t>((n_ - 2) % kRing)];
+    const Row& r2 = rows_[static_cast<size_t>((n_ - 1) % kRing)];
+    if (t - r0.t <= kGainMaxSpanS) {
+      const auto w = back_weights(r0.t, r1.t, r2.t, t);
+      double fr = 0.0, lr = 0.0, ff = 0.0, fl = 0.0, ll = 0.0;
+      bool any = false;
+      for (size_t o = 0; o < kFs; o += 3) {
+        if (!finite3(r0.c.data() + o) || !finite3(r1.x.data() + o) || !finite3(r2.x.data() + o) ||
+            !finite3(row.x.data() + o))
+          continue;
+        for (size_t k = 0; k < 3; ++k) {
+          const double ref = w[0] * static_cast<double>(r1.x[o + k]) + w[1] * static_cast<double>(r2.x[o + k]) +
+                             w[2] * static_cast<double>(row.x[o + k]);
+          const double r = ref - static_cast<double>(r0.x[o + k]);
+          const double low = r0.low[o + k], fast = r0.c[o + k] - low;
+          fr += fast * r;
+          lr += low * r;
+          ff += fast * fast;
+          fl += fast * low;
+          ll += low * low;
+        }
+        any = true;
+      }
+      if (any) {
+        const double keep = 1.0 - 1.0 / kGainRows;
+        s_fr_ = keep * s_fr_ + fr;
+        s_lr_ = keep * s_lr_ + lr;
+        s_ff_ = keep * s_ff_ + ff;
+        s_fl_ = keep * s_fl_ + fl;
+        s_ll_ = keep * s_ll_ + ll;
+        s_rows_ = keep * s_rows_ + 1.0;
+        if (s_rows_ >= kGainMinRows) solve();
+      }
+    }
+  }
+  for (size_t i = 0; i < kFs; ++i)
+    shift_[i] = std::isfinite(row.c[i])
+                    ? -(1.0 - gain_fast_) * (row.c[i] - row.low[i]) - (1.0 - gain_low_) * row.low[i]
+                    : 0.0;
+  ++n_;
+}
+
+}  // namespace hs
