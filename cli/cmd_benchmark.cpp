@@ -30,6 +30,7 @@ struct BenchmarkOptions {
   std::vector<std::string> models;  // LABEL=FILE.hsm
   bool no_default_model = false;
   bool unbounded = false;  // also each model without its trust region
+  bool gain = false;       // also each model with its correction gain
   bench::Options run;
 };
 
@@ -88,6 +89,11 @@ void run_benchmark(const BenchmarkOptions& o, const std::string& command) {
     c.stgae.model = model;
     c.stgae.source = file.string();
     methods.push_back({label, [c](const std::string&) { return make_filter(c); }, true});
+    if (o.gain) {
+      FilterConfig g = c;
+      g.stgae.gain = true;
+      methods.push_back({label + "-gain", [g](const std::string&) { return make_filter(g); }, true});
+    }
     if (o.unbounded) {
       c.stgae.bounded = false;
       methods.push_back({label + "-unbounded", [c](const std::string&) { return make_filter(c); }, true});
@@ -110,6 +116,8 @@ void setup_benchmark(CLI::App& app) {
   sub->add_option("--out", o->out, "Folder for benchmark.md, benchmark.json, curve.csv")->required();
   sub->add_option("--model", o->models, "LABEL=FILE.hsm, a causal model to score (repeatable)");
   sub->add_flag("--no-default-model", o->no_default_model, "Do not add the shipped models (labels multistgae, stgae, dgn)");
+  sub->add_flag("--gain", o->gain,
+                "Also score each model with its correction gain (label LABEL-gain; docs/STGAE.md \"Correction gain\")");
   sub->add_flag("--unbounded", o->unbounded,
                 "Also score each model without its trust region (label LABEL-unbounded; docs/STGAE.md)");
   sub->add_flag("--quick", o->run.quick, "The CI subset: ~20 s of each set, one strength per family");

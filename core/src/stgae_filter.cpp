@@ -34,8 +34,8 @@ struct PhaseOutput {
 
 class StgaeFilter final : public PoseFilter {
  public:
-  StgaeFilter(std::shared_ptr<const StgaeModel> model, int phases, bool bounded)
-      : model_(std::move(model)), fixed_phases_(phases), bounded_(bounded) {
+  StgaeFilter(std::shared_ptr<const StgaeModel> model, int phases, bool bounded, bool gain)
+      : model_(std::move(model)), fixed_phases_(phases), bounded_(bounded), gained_(bounded && gain) {
     const auto& c = model_->config;
     n_ = c.joint_count();
     if (n_ != kJointCount) throw std::invalid_argument("the STGAE filter needs a 26-joint (xr26) model");
@@ -68,7 +68,7 @@ class StgaeFilter final : public PoseFilter {
   bool push(double t, const Pose& observed) noexcept override {
     if (!std::isfinite(t) || (!std::isnan(last_t_) && t <= last_t_)) return false;
     if (!push_row(t, observed)) return true;  // hand lost in this frame
-    if (bounded_ && latest_ >= 0) {
+    if (gained_ && latest_ >= 0) {
       answer(t, ans_);
       gain_.observe(t, std::span<const float>(cur_.data(), cur_.size()),
                     std::span<const double>(ans_.data(), static_cast<size_t>(ans_.size())));
@@ -122,7 +122,7 @@ class StgaeFilter final : public PoseFilter {
 
   void estimate(double t, Pose& out) const noexcept override {
     answer(t, out);
-    if (!bounded_ || std::isnan(last_t_)) return;
+    if (!gained_ || std::isnan(last_t_)) return;
     // The correction gain is a denoiser's: its shift fades out over one model period ahead,
     // so predictions keep the network's path (the input's noise the shift lets through
     // made the 50 ms predictions jerkier: docs/STGAE.md "Correction gain").
@@ -326,7 +326,8 @@ class StgaeFilter final : public PoseFilter {
   std::array<PhaseOutput, kStgaeMaxPhases> out_;
   std::array<CorrectionBound, kStgaeMaxPhases> bounds_;  // one per stream: its frames are a period apart
   bool bounded_ = true;
-  CorrectionGain gain_;          // how much of the answer's correction to keep (with bounded_)
+  bool gained_ = false;
+  CorrectionGain gain_;          // how much of the answer's correction to keep (gained_)
   Pose ans_ = untracked_pose();  // the answer at the last row, before the gain
   int n_ = 0, dt_frames_ = 0, phases_ = 1, latest_ = -1, valid_rows_ = 0, mismatch_rows_ = 0;
   std::array<double, kRateWindow> intervals_{};  // ring of the last sample intervals (s)
@@ -344,7 +345,7 @@ class StgaeFilter final : public PoseFilter {
 }  // namespace
 
 std::unique_ptr<PoseFilter> make_stgae_filter(std::shared_ptr<const StgaeModel> model, double horizon_s, int phases,
-                                              bool bounded) {
+                                              bool bounded, bool gain) {
   if (!model || !model->net) throw std::invalid_argument("make_stgae_filter: no model");
   if (model->config.padding != StgaePadding::Causal)
     throw std::invalid_argument("make_stgae_filter: streaming needs a causal model (this one is centred)");
@@ -353,7 +354,7 @@ std::unique_ptr<PoseFilter> make_stgae_filter(std::shared_ptr<const StgaeModel> 
   if (phases < 0 || phases > kStgaeMaxPhases)
     throw std::invalid_argument("make_stgae_filter: phases must be 0 (from the input rate) to " +
                                 std::to_string(kStgaeMaxPhases));
-  return std::make_unique<StgaeFilter>(std::move(model), phases, bounded);
+  return std::make_unique<StgaeFilter>(std::move(model), phases, bounded, gain);
 }
 
 }  // namespace hs

@@ -88,6 +88,8 @@ struct StgaeParams {
   std::string source;  // the file it came from (for the summary)
   int phases = 0;      // interleaved streams; 0 = input rate / model rate (stgae_filter.hpp)
   bool bounded = true; // false: the network's own answer, without the trust region
+  bool gain = false;    // with bounded: keep only the share of the correction the input's next rows confirm
+                        // (correction_gain.hpp; opt-in: it gives up the network's tremor removal)
   bool offline = false;
 };
 
