@@ -1,4 +1,5 @@
 #include "handsteady/correction_bound.hpp"
+#include "handsteady/time_series.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -10,7 +11,6 @@ namespace {
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-bool finite3(const float* p) noexcept { return std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]); }
 Eigen::Vector3d load(const float* p) noexcept { return Eigen::Vector3f(p[0], p[1], p[2]).cast<double>(); }
 void store(const Eigen::Vector3d& v, float* p) noexcept {
   for (int c = 0; c < 3; ++c) p[c] = static_cast<float>(v[c]);
@@ -93,11 +93,11 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path) noe
     const auto ju = static_cast<size_t>(j);
     const size_t o = 3 * ju;
     radius_[ju] = kInf;
-    if (!finite3(x_now + o)) continue;
+    if (!finite_xyz(x_now + o)) continue;
     const Eigen::Vector3d xn = load(x_now + o);
     const float* x1 = n_ >= 1 ? x_back(1) + o : nullptr;
     const float* x2 = n_ >= 2 ? x_back(2) + o : nullptr;
-    const bool have1 = x1 && finite3(x1), have2 = have1 && x2 && finite3(x2);
+    const bool have1 = x1 && finite_xyz(x1), have2 = have1 && x2 && finite_xyz(x2);
     // The noise radius is the history's: this frame's own second difference only widens
     // the radius (an outlier is taken back) and does not yet count as noise.
     const double s = std::sqrt(rough_[ju]);  // RMS second difference
@@ -110,7 +110,7 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path) noe
     const double r = std::max(noise_r, a);
     radius_[ju] = r;
     float* dj = path.data() + o;
-    if (!finite3(dj)) continue;
+    if (!finite_xyz(dj)) continue;
     const Eigen::Vector3d d = load(dj);
     // The denoised frame: less the network's mean offset from its input (noise averages out
     // of a correction, a bias does not; each step at most the noise radius, so an outlier's
@@ -127,7 +127,7 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path) noe
     const Eigen::Vector3d v = have1 ? Eigen::Vector3d(xn - load(x1)) : Eigen::Vector3d::Zero();
     for (size_t f = 1; f < F; ++f) {
       float* pf = path.data() + f * kFs + o;
-      if (!finite3(pf)) continue;
+      if (!finite_xyz(pf)) continue;
       const Eigen::Vector3d disp = load(pf) - d;
       const size_t b = f * kJointCount + ju;
       store(disp, disp_now + (f - 1) * kFs + o);
@@ -135,7 +135,7 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path) noe
       if (n_ >= back) {  // the displacement predicted f frames ago, against the input's since
         const float* then = x_back(back) + o;
         const float* said = disp_.data() + static_cast<size_t>((n_ - back) % hist_) * (F - 1) * kFs + (f - 1) * kFs + o;
-        if (finite3(then) && finite3(said))
+        if (finite_xyz(then) && finite_xyz(said))
           mean_step(bias_[b], spread_[b], last_[b], bias_count_[b], load(said) - (xn - load(then)), noise_r);
       }
       const double fd = static_cast<double>(f);

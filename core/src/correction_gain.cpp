@@ -1,4 +1,5 @@
 #include "handsteady/correction_gain.hpp"
+#include "handsteady/time_series.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -8,11 +9,6 @@ namespace hs {
 
 namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
-template <class T>
-bool finite3(const T* p) noexcept {
-  return std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]);
-}
 
 // Lagrange weights of the quadratic through times t1, t2, t3, evaluated at t0.
 std::array<double, 3> back_weights(double t0, double t1, double t2, double t3) noexcept {
@@ -68,7 +64,7 @@ void CorrectionGain::observe(double t, std::span<const float> x, std::span<const
   for (size_t o = 0; o < kFs; o += 3) {
     double* c = row.c.data() + o;
     double* low = low_.data() + o;
-    if (!finite3(row.x.data() + o) || !finite3(answer.data() + o)) {
+    if (!finite_xyz(row.x.data() + o) || !finite_xyz(answer.data() + o)) {
       for (size_t k = 0; k < 3; ++k) c[k] = low[k] = row.low[o + k] = kNaN;
       continue;
     }
@@ -102,8 +98,8 @@ void CorrectionGain::observe(double t, std::span<const float> x, std::span<const
       double fr = 0.0, lr = 0.0, ff = 0.0, fl = 0.0, ll = 0.0;
       bool any = false;
       for (size_t o = 0; o < kFs; o += 3) {
-        if (!finite3(r0.c.data() + o) || !finite3(r1.x.data() + o) || !finite3(r2.x.data() + o) ||
-            !finite3(row.x.data() + o))
+        if (!finite_xyz(r0.c.data() + o) || !finite_xyz(r1.x.data() + o) || !finite_xyz(r2.x.data() + o) ||
+            !finite_xyz(row.x.data() + o))
           continue;
         for (size_t k = 0; k < 3; ++k) {
           const double ref = w[0] * static_cast<double>(r1.x[o + k]) + w[1] * static_cast<double>(r2.x[o + k]) +

@@ -18,6 +18,12 @@
 
 namespace hs {
 
+// Whether one joint's xyz in a joint-major frame is there (a missing joint is NaN).
+template <class T>
+bool finite_xyz(const T* p) noexcept {
+  return std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]);
+}
+
 // A grid tick up to this long after a sample counts as at it: recorded times are rounded
 // (1/30 s written to 9 decimals), and a tick a hair after its sample must be answered by
 // that sample, not by the next one (which would turn every answer into an extrapolation).
