@@ -31,6 +31,7 @@ struct BenchmarkOptions {
   bool no_default_model = false;
   bool unbounded = false;  // also each model without its trust region
   bool gain = false;       // also each model with its correction gain
+  bool palm_fit = false;   // also raw and tuned One Euro behind the palm fit, and each model without it
   bench::Options run;
 };
 
@@ -80,6 +81,7 @@ void run_benchmark(const BenchmarkOptions& o, const std::string& command) {
   }
   bench::tune_oneeuro(sets, o.run, report);
   auto methods = bench::classical_methods(report.tuned);
+  const auto classical = static_cast<std::ptrdiff_t>(methods.size());
   for (const auto& [label, file] : model_files) {
     std::shared_ptr<const StgaeModel> model = load_hsm(file);  // InputError naming the file
     if (model->config.padding != StgaePadding::Causal)
@@ -89,6 +91,11 @@ void run_benchmark(const BenchmarkOptions& o, const std::string& command) {
     c.stgae.model = model;
     c.stgae.source = file.string();
     methods.push_back({label, [c](const std::string&) { return make_filter(c); }, true});
+    if (o.palm_fit) {
+      FilterConfig n = c;
+      n.palm_fit = false;
+      methods.push_back({label + "-nopalmfit", [n](const std::string&) { return make_filter(n); }, true});
+    }
     if (o.gain) {
       FilterConfig g = c;
       g.stgae.gain = true;
@@ -99,6 +106,13 @@ void run_benchmark(const BenchmarkOptions& o, const std::string& command) {
       methods.push_back({label + "-unbounded", [c](const std::string&) { return make_filter(c); }, true});
     }
     report.notes.push_back(fmt::format("model {} = {}", label, file.string()));
+  }
+  if (o.palm_fit) {  // the fit alone, in front of the plain baselines
+    std::vector<bench::Method> fitted;
+    for (const auto& m : methods)
+      if (m.name == "raw" || m.name == "oneeuro-tuned")
+        fitted.push_back({m.name + "-palmfit", [make = m.make](const std::string& key) { return with_palm_fit(make(key)); }});
+    methods.insert(methods.begin() + classical, fitted.begin(), fitted.end());
   }
   bench::run_grid(sets, methods, o.run, report);
   fs::create_directories(o.out);
@@ -116,6 +130,9 @@ void setup_benchmark(CLI::App& app) {
   sub->add_option("--out", o->out, "Folder for benchmark.md, benchmark.json, curve.csv")->required();
   sub->add_option("--model", o->models, "LABEL=FILE.hsm, a causal model to score (repeatable)");
   sub->add_flag("--no-default-model", o->no_default_model, "Do not add the shipped models (labels multistgae, stgae, dgn)");
+  sub->add_flag("--palm-fit", o->palm_fit,
+                "Also score raw and tuned One Euro behind the palm fit (raw-palmfit, oneeuro-tuned-palmfit) and each "
+                "model without it (LABEL-nopalmfit; docs/FILTERS.md \"Palm fit\")");
   sub->add_flag("--gain", o->gain,
                 "Also score each model with its correction gain (label LABEL-gain; docs/STGAE.md \"Correction gain\")");
   sub->add_flag("--unbounded", o->unbounded,

@@ -8,6 +8,8 @@
 # from the window ending at each row, the paper's protocol).
 # HS_FPHA_UNBOUNDED=1 adds `stgae-unbounded`: the network without its trust region
 # (docs/STGAE.md "Trust region").
+# HS_FPHA_NOPALMFIT=1 adds `stgae-nopalmfit`: the network without the palm fit in front of
+# it (docs/FILTERS.md "Palm fit"; these were the `stgae` rows before 2026-11-24).
 # Usage: scripts/fpha_table.sh HANDSTEADY_BINARY SHARED_DATA_DIR OUT_DIR
 set -euo pipefail
 hs=$1; data=$2; out=$3
@@ -33,6 +35,12 @@ for preset in tracker paper tremor; do
     m=stgae-unbounded
     $hs filter --in "$d/noisy.csv" --out "$d/$m.csv" --method stgae --unbounded >/dev/null
     $hs filter --in "$d/noisy.csv" --out "$d/${m}_h50.csv" --method stgae --unbounded --horizon-ms 50 >/dev/null
+    den+=(--in "$m=$d/$m.csv"); pre+=(--in "$m=$d/${m}_h50.csv")
+  fi
+  if [ "${HS_FPHA_NOPALMFIT:-0}" = 1 ] && [[ " ${methods[*]} " == *" stgae "* ]]; then
+    m=stgae-nopalmfit
+    $hs filter --in "$d/noisy.csv" --out "$d/$m.csv" --method stgae --no-palm-fit >/dev/null
+    $hs filter --in "$d/noisy.csv" --out "$d/${m}_h50.csv" --method stgae --no-palm-fit --horizon-ms 50 >/dev/null
     den+=(--in "$m=$d/$m.csv"); pre+=(--in "$m=$d/${m}_h50.csv")
   fi
   if [ -n "${HS_CENTRED_MODEL:-}" ]; then

@@ -615,13 +615,13 @@ TEST_CASE("Multi-STGAE is one more method of the same config: make_filter and fi
   for (const Pose& p : m.pos) s.pos.push_back(hs::test::synthetic_hand() + p);
   for (bool bounded : {true, false}) {
     c.stgae.bounded = bounded;
-    // The same answers as the adapter built directly.
-    const auto direct = hs::make_stgae_filter(c.stgae.model, 0.0, 0, bounded);
+    // The same answers as the adapter built directly, behind the palm fit (on by default).
+    const auto direct = hs::with_palm_fit(hs::make_stgae_filter(c.stgae.model, 0.0, 0, bounded));
     const hs::HandSeries a = hs::filter_series_with(c, s, 0.02), b = hs::filter_series(*direct, s, 0.02);
     REQUIRE(a.size() == b.size());
     for (size_t i = 0; i < a.size(); ++i) CHECK(same_pose(a.pos[i], b.pos[i]));
   }
-  CHECK(hs::filter_params_summary(c) == "model=causal.hsm rate_hz=30 window=16 horizon_frames=3 padding=causal mode=streaming phases=auto unbounded");
+  CHECK(hs::filter_params_summary(c) == "model=causal.hsm rate_hz=30 window=16 horizon_frames=3 padding=causal mode=streaming phases=auto unbounded palm_fit=1");
   c.stgae.phases = 5;
   CHECK_THROWS_AS(hs::make_filter(c), std::invalid_argument);
   c.stgae.phases = 0;

@@ -7,6 +7,7 @@
 #include "handsteady/filters.hpp"
 
 #include "handsteady/model_path.hpp"
+#include "handsteady/palm_fit.hpp"
 
 #include "handsteady/stgae_filter.hpp"
 #include "handsteady/stgae_model.hpp"
@@ -16,6 +17,7 @@
 
 #include <array>
 #include <cmath>
+#include <cstdlib>
 #include <limits>
 #include <numbers>
 #include <stdexcept>
@@ -232,6 +234,34 @@ class KalmanFilter final : public JointwiseFilter<KalmanFilter> {
   std::array<Cov, kJointCount> cov_{};
 };
 
+// Any method behind the palm fit (palm_fit.hpp): the rows it is fed have their palm
+// joints fitted to the hand's rigid palm first.
+class PalmFitFilter final : public PoseFilter {
+ public:
+  explicit PalmFitFilter(std::unique_ptr<PoseFilter> inner) : inner_(std::move(inner)) {}
+  void reset() noexcept override {
+    fit_.reset();
+    inner_->reset();
+  }
+  bool push(double t, const Pose& observed) noexcept override {
+    const double last = inner_->last_time();
+    if (!std::isfinite(t) || (std::isfinite(last) && !(t > last))) return false;  // as the filters refuse it
+    // After a tracking gap the hand may be another (or the tracker re-estimates its
+    // shape, as Leap Motion does): the template is learnt anew.
+    if (std::isfinite(last) && t - last > kModelResetGapS) fit_.reset();
+    row_ = observed;
+    fit_.apply(row_);
+    return inner_->push(t, row_);
+  }
+  void estimate(double t, Pose& out) const noexcept override { inner_->estimate(t, out); }
+  double last_time() const noexcept override { return inner_->last_time(); }
+
+ private:
+  std::unique_ptr<PoseFilter> inner_;
+  PalmFit fit_;
+  Pose row_ = untracked_pose();
+};
+
 void require(bool ok, std::string_view what, double value) {
   if (!ok) throw std::invalid_argument(fmt::format("{}, got {}", what, value));
 }
@@ -270,8 +300,8 @@ FilterMethod network_method(const StgaeModel& model) noexcept {
   return model.config.family == StgaeFamily::Dgn ? FilterMethod::Dgn : FilterMethod::Stgae;
 }
 
-std::unique_ptr<PoseFilter> make_filter(const FilterConfig& c) {
-  require(c.max_gap_s > 0.0 && std::isfinite(c.max_gap_s), "max gap must be positive", c.max_gap_s);
+namespace {
+std::unique_ptr<PoseFilter> make_method_filter(const FilterConfig& c) {
   switch (c.method) {
     case FilterMethod::Raw:
       return std::make_unique<RawFilter>(c.max_gap_s);
@@ -313,8 +343,25 @@ std::unique_ptr<PoseFilter> make_filter(const FilterConfig& c) {
   }
   throw std::invalid_argument("unknown filter method");
 }
+}  // namespace
+
+std::unique_ptr<PoseFilter> make_filter(const FilterConfig& c) {
+  require(c.max_gap_s > 0.0 && std::isfinite(c.max_gap_s), "max gap must be positive", c.max_gap_s);
+  auto f = make_method_filter(c);
+  return palm_fit_on(c) ? with_palm_fit(std::move(f)) : std::move(f);
+}
+
+bool palm_fit_on(const FilterConfig& c) noexcept {
+  if (is_network(c.method) && c.stgae.offline) return false;  // window mode has none
+  return c.palm_fit.value_or(is_network(c.method));
+}
+
+std::unique_ptr<PoseFilter> with_palm_fit(std::unique_ptr<PoseFilter> filter) {
+  return std::make_unique<PalmFitFilter>(std::move(filter));
+}
 
 std::string filter_params_summary(const FilterConfig& c) {
+  const char* fit = palm_fit_on(c) ? " palm_fit=1" : "";
   std::string s;
   switch (c.method) {
     case FilterMethod::Raw:
@@ -341,10 +388,10 @@ std::string filter_params_summary(const FilterConfig& c) {
                          m.rate_hz, m.window, m.predict ? m.horizon : 0,
                          m.padding == StgaePadding::Causal ? "causal" : "centred",
                          p.offline ? "offline" : "streaming", p.phases == 0 ? std::string("auto") : std::to_string(p.phases),
-                         p.bounded ? "" : " unbounded", p.bounded && p.gain ? " gain" : "");
+                         p.bounded ? "" : " unbounded", p.bounded && p.gain ? " gain" : "") + fit;
     }
   }
-  return s + fmt::format("max_gap_ms={}", c.max_gap_s * 1e3);
+  return s + fmt::format("max_gap_ms={}", c.max_gap_s * 1e3) + fit;
 }
 
 std::vector<HandSeries> filter_series(PoseFilter& filter, const HandSeries& series, std::span<const double> horizons_s) {
@@ -365,6 +412,8 @@ std::vector<HandSeries> filter_series(PoseFilter& filter, const HandSeries& seri
 
 HandSeries filter_series_with(const FilterConfig& config, const HandSeries& series, double horizon_s) {
   if (is_network(config.method) && config.stgae.offline) {
+    if (config.palm_fit.value_or(false))
+      throw std::invalid_argument("the palm fit streams; window mode (offline) has none");
     if (!config.stgae.model) throw std::invalid_argument("network method: no model");
     return stgae_offline_series(*config.stgae.model, series, horizon_s);
   }

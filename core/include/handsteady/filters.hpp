@@ -12,6 +12,7 @@
 
 #include <array>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -99,6 +100,10 @@ struct FilterConfig {
   DespParams desp;
   KalmanParams kalman;
   StgaeParams stgae;
+  // Fit the hand's rigid palm to each row's palm joints before the method sees it
+  // (palm_fit.hpp; any method). Unset: on for the network methods (part of their shipped
+  // pipeline, with the trust region), off for the classical ones (the baselines).
+  std::optional<bool> palm_fit;
   // A joint unseen for longer than this (relative to the last input) has no estimate
   // and re-initialises when it reappears (classical methods; the network forgets after
   // kModelResetGapS).
@@ -109,6 +114,11 @@ struct FilterConfig {
 // when a parameter is out of range, the model is missing or cannot stream, or for
 // window mode (stgae.offline: use filter_series_with).
 std::unique_ptr<PoseFilter> make_filter(const FilterConfig& config);
+// Whether make_filter puts the palm fit in front of the method (config.palm_fit, or its
+// default; never for window mode).
+bool palm_fit_on(const FilterConfig& config) noexcept;
+// Any filter behind the palm fit (what make_filter does when palm_fit_on).
+std::unique_ptr<PoseFilter> with_palm_fit(std::unique_ptr<PoseFilter> filter);
 
 // The parameters that matter for config.method, "key=value" separated by spaces, e.g.
 // "mincutoff=1 beta=5 dcutoff=1 vec3=1 extrapolate=0 max_gap_ms=500" (used for track metadata).

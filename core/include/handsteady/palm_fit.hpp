@@ -1,0 +1,64 @@
+#pragma once
+// The palm is rigid: a zero-lag denoiser for its joints, learnt per hand.
+//
+// The palm, the wrist and the bases of the five metacarpals (OpenXR's PALM, WRIST and
+// *_METACARPAL joints) and the four finger knuckles (*_PROXIMAL except the thumb's) move
+// as one rigid body in every recording we have and in every runtime's hand model. Where
+// a tracker's noise is independent per joint, the 11 noisy points determine only 6
+// degrees of freedom, so fitting the hand's own palm shape to them removes most of their
+// noise in the same frame, without lag. The shape (a template) is learnt online from the
+// input: a running mean of the palm's points, each row aligned to it (Kabsch); any hand
+// size or runtime's joint placement is learnt the same way.
+//
+// apply() fits the template to a row's palm joints (weighted least squares, rotation and
+// translation, no scale), leaves joints that are far off the fit out of it and of the
+// template (outliers: a joint that jumped is put back where the palm says it is), and
+// fills missing palm joints from the fit once the template knows them. Nothing changes
+// until kPalmMinRows rows have taught the template, or where fewer than kPalmMinPoints
+// palm joints are present. A palm that bends (a real hand cupping its little and ring
+// knuckles by a few mm) is fitted as rigid: the fit then errs by that bend, which is why
+// it is opt-in (docs/FILTERS.md "Palm fit").
+// noexcept, no allocation. docs/FILTERS.md "Palm fit".
+#include "handsteady/skeleton.hpp"
+#include "handsteady/track.hpp"
+
+#include <array>
+
+namespace hs {
+
+// The palm's joints, rigid with each other.
+inline constexpr std::array<int, 11> kPalmJoints = {
+    idx(Joint::Palm),           idx(Joint::Wrist),          idx(Joint::ThumbMetacarpal), idx(Joint::IndexMetacarpal),
+    idx(Joint::IndexProximal),  idx(Joint::MiddleMetacarpal), idx(Joint::MiddleProximal), idx(Joint::RingMetacarpal),
+    idx(Joint::RingProximal),   idx(Joint::LittleMetacarpal), idx(Joint::LittleProximal)};
+
+inline constexpr double kPalmTemplateRows = 120.0;  // rows in the template's running mean
+inline constexpr int kPalmMinRows = 10;             // rows before the fit applies
+inline constexpr int kPalmMinPoints = 5;            // palm joints a fit needs
+inline constexpr double kPalmOutlier = 4.0;         // a joint this many residual RMS off is left out
+inline constexpr double kPalmOutlierFloorM = 0.003; // ... and at least this far (m)
+inline constexpr int kPalmMaxOutliers = 3;          // joints left out of one row's fit at most
+inline constexpr double kPalmRigidFactor = 4.0;     // a joint whose mean squared residual is this many
+inline constexpr double kPalmRigidFloorM = 0.001;   // times the median's (plus this squared) is not rigid
+
+class PalmFit {
+ public:
+  PalmFit() { reset(); }
+  // Forgets the template (a new hand).
+  void reset() noexcept;
+  // Learns from the row and replaces its palm joints by the fitted template (see above).
+  // Rows with non-finite joints: those joints are missing.
+  void apply(Pose& pose) noexcept;
+  // Rows the template has learnt from.
+  int rows() const noexcept { return rows_; }
+
+ private:
+  static constexpr size_t kP = kPalmJoints.size();
+  std::array<std::array<double, 3>, kP> tmpl_{};  // the template, in its own frame
+  std::array<double, kP> count_{};                // rows each template point has learnt from
+  int rows_ = 0;
+  double resid2_ = 0.0, resid_rows_ = 0.0;  // running mean of an inlier's squared residual (m^2)
+  std::array<double, kP> resid_{}, resid_n_{};  // each joint's running mean squared residual (m^2)
+};
+
+}  // namespace hs
