@@ -582,9 +582,11 @@ TEST_CASE("push and estimate never allocate") {
   delete probe;
   REQUIRE(g_allocations >= 1);
 
+  for (const bool palm_fit : {false, true})  // also behind the palm fit (palm_fit.hpp)
   for (FilterMethod method : kMethods) {
     FilterConfig c = config(method);
     c.oneeuro.extrapolate = true;
+    c.palm_fit = palm_fit;
     auto f = hs::make_filter(c);
     Pose out;
     Pose holey = m.pos[0];
@@ -598,7 +600,7 @@ TEST_CASE("push and estimate never allocate") {
     }
     f->reset();
     g_count_allocations = false;
-    CHECK_MESSAGE(g_allocations == 0, hs::filter_method_name(method));
+    CHECK_MESSAGE(g_allocations == 0, hs::filter_method_name(method) << (palm_fit ? " with the palm fit" : ""));
   }
 }
 
