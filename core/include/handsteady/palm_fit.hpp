@@ -4,21 +4,23 @@
 // The palm, the wrist and the bases of the five metacarpals (OpenXR's PALM, WRIST and
 // *_METACARPAL joints) and the four finger knuckles (*_PROXIMAL except the thumb's) move
 // as one rigid body in every recording we have and in every runtime's hand model. Where
-// a tracker's noise is independent per joint, the 11 noisy points determine only 6
-// degrees of freedom, so fitting the hand's own palm shape to them removes most of their
-// noise in the same frame, without lag. The shape (a template) is learnt online from the
-// input: a running mean of the palm's points, each row aligned to it (Kabsch); any hand
-// size or runtime's joint placement is learnt the same way.
+// a tracker's noise is independent per joint, the 11 noisy points determine only 7
+// degrees of freedom (rotation, translation, scale), so fitting the hand's own palm to
+// them removes most of their noise in the same frame, without lag. The shape (a template)
+// is learnt online from the input: a running mean of the palm's points, each row aligned
+// to it; any hand size or runtime's joint placement is learnt the same way.
 //
-// apply() fits the template to a row's palm joints (weighted least squares, rotation and
-// translation, no scale), leaves joints that are far off the fit out of it and of the
-// template (outliers: a joint that jumped is put back where the palm says it is), and
-// fills missing palm joints from the fit once the template knows them. Nothing changes
-// until kPalmMinRows rows have taught the template, or where fewer than kPalmMinPoints
-// palm joints are present. A palm that bends (a real hand cupping its little and ring
-// knuckles by a few mm) is fitted as rigid: the fit then errs by that bend, which is why
-// it is opt-in (docs/FILTERS.md "Palm fit").
-// noexcept, no allocation. docs/FILTERS.md "Palm fit".
+// apply() fits the template to a row's palm joints (least squares: rotation, translation
+// and uniform scale, since some trackers re-estimate the hand's size as they go), leaves
+// joints far off the fit out of it, one at a time, worst first (outliers: a joint that
+// jumped is put back where the palm says it is, and does not teach the template), and
+// fills missing palm joints from the fit once the template knows them. A joint whose
+// running residual stays far above the other joints' does not move with the palm in this
+// tracker (ManipNet's THUMB_METACARPAL sits on the moving thumb): it passes through.
+// Nothing changes until kPalmMinRows rows have taught the template, or where fewer than
+// kPalmMinPoints palm joints are present. Other joints are never touched.
+// noexcept, no allocation. make_filter puts it in front of the network methods by default
+// (FilterConfig::palm_fit). docs/FILTERS.md "Palm fit".
 #include "handsteady/skeleton.hpp"
 #include "handsteady/track.hpp"
 
@@ -33,7 +35,7 @@ inline constexpr std::array<int, 11> kPalmJoints = {
     idx(Joint::RingProximal),   idx(Joint::LittleMetacarpal), idx(Joint::LittleProximal)};
 
 inline constexpr double kPalmTemplateRows = 120.0;  // rows in the template's running mean
-inline constexpr int kPalmMinRows = 10;             // rows before the fit applies
+inline constexpr int kPalmMinRows = 10;             // rows that teach the template before the fit applies
 inline constexpr int kPalmMinPoints = 5;            // palm joints a fit needs
 inline constexpr double kPalmOutlier = 4.0;         // a joint this many residual RMS off is left out
 inline constexpr double kPalmOutlierFloorM = 0.003; // ... and at least this far (m)
