@@ -38,12 +38,7 @@ double max_diff(const float* a, const float* b, size_t n) {
   return w;
 }
 
-// p with white noise added to every coordinate, joint-major.
-hs::Pose jittered(hs::Pose p, std::mt19937_64& rng, std::normal_distribution<double>& noise) {
-  for (int j = 0; j < kJointCount; ++j)
-    for (int c = 0; c < 3; ++c) p(j, c) += noise(rng);
-  return p;
-}
+using hs::test::jittered;
 
 std::shared_ptr<const hs::StgaeModel> shipped_model() {
   return hs::load_hsm(std::filesystem::path(HS_FIXTURES) / ".." / ".." / "models" / "handsteady_xr26_causal.hsm");

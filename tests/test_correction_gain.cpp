@@ -48,9 +48,7 @@ Errors run(CorrectionGain& g, const hs::HandSeries& truth, double sd, Denoise de
   Errors e;
   size_t n = 0;
   for (size_t i = 0; i < truth.size(); ++i) {
-    hs::Pose x = truth.pos[i];
-    for (int j = 0; j < kJointCount; ++j)
-      for (int c = 0; c < 3; ++c) x(j, c) += noise(rng);
+    const hs::Pose x = hs::test::jittered(truth.pos[i], rng, noise);
     const hs::Pose a = denoise(i, truth.pos[i], x);
     const auto xf = frame_of(x);
     g.observe(truth.t[i], xf, std::span<const double>(a.data(), kFs));
@@ -86,10 +84,7 @@ TEST_CASE("correction gain: a correction that adds its own error is taken back t
   std::mt19937_64 rng(5);
   std::normal_distribution<double> wrong(0.0, 0.0015);
   const Errors e = run(g, truth, 0.0015, [&](size_t, const hs::Pose&, const hs::Pose& x) {
-    hs::Pose a = x;
-    for (int j = 0; j < kJointCount; ++j)
-      for (int c = 0; c < 3; ++c) a(j, c) += wrong(rng);
-    return a;
+    return hs::test::jittered(x, rng, wrong);
   });
   INFO("gains " << g.gain_fast() << " / " << g.gain_low() << "; errors " << e.input << " " << e.answer << " " << e.gained);
   CHECK(g.gain_fast() < 0.15);
@@ -106,9 +101,8 @@ TEST_CASE("correction gain: an outlier taken back stays whole, nothing changes b
   double worst_outlier_mm = 0.0;
   int outliers = 0;
   for (size_t i = 0; i < truth.size(); ++i) {
-    hs::Pose x = truth.pos[i], a = x;
-    for (int j = 0; j < kJointCount; ++j)
-      for (int c = 0; c < 3; ++c) a(j, c) += wrong(rng);  // the denoiser's own error
+    hs::Pose x = truth.pos[i];
+    hs::Pose a = hs::test::jittered(x, rng, wrong);  // the denoiser's own error
     const bool outlier = i > 100 && i % 37 == 0;
     if (outlier) {
       x(kJoint, 0) += 0.03;          // a 30 mm jump...
@@ -138,9 +132,7 @@ TEST_CASE("correction gain: missing joints are not shifted, restart keeps the ga
   std::mt19937_64 rng(3);
   std::normal_distribution<double> wrong(0.0, 0.002);
   for (size_t i = 0; i < truth.size(); ++i) {
-    hs::Pose a = truth.pos[i];
-    for (int j = 0; j < kJointCount; ++j)
-      for (int c = 0; c < 3; ++c) a(j, c) += wrong(rng);
+    const hs::Pose a = hs::test::jittered(truth.pos[i], rng, wrong);
     auto x = frame_of(truth.pos[i]);
     if (i + 1 == truth.size()) x[3 * 4] = std::numeric_limits<float>::quiet_NaN();  // joint 4 lost
     g.observe(truth.t[i], x, std::span<const double>(a.data(), kFs));

@@ -17,6 +17,7 @@ namespace {
 using hs::Joint;
 using hs::kPalmJoints;
 using hs::PalmFit;
+using hs::test::jittered;
 using hs::Pose;
 
 hs::HandSeries moving_hand(double seconds, double rate_hz = 90.0) {
@@ -28,14 +29,6 @@ hs::HandSeries moving_hand(double seconds, double rate_hz = 90.0) {
 
 bool is_palm(int j) { return std::find(kPalmJoints.begin(), kPalmJoints.end(), j) != kPalmJoints.end(); }
 
-Pose add_noise(const Pose& p, double sd_m, std::mt19937& rng) {
-  std::normal_distribution<double> n(0.0, sd_m);
-  Pose out = p;
-  for (int j = 0; j < hs::kJointCount; ++j)
-    for (int c = 0; c < 3; ++c) out(j, c) += n(rng);
-  return out;
-}
-
 double palm_error_mm(const Pose& a, const Pose& b) {
   double s = 0.0;
   for (int j : kPalmJoints) s += (a.row(j) - b.row(j)).norm();
@@ -46,12 +39,13 @@ double palm_error_mm(const Pose& a, const Pose& b) {
 
 TEST_CASE("Palm fit: white noise on the palm is taken out in the same frame, other joints untouched") {
   const hs::HandSeries truth = moving_hand(8.0);
-  std::mt19937 rng(3);
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> noise(0.0, 0.0015);
   PalmFit fit;
   double in_err = 0.0, out_err = 0.0;
   int n = 0;
   for (size_t i = 0; i < truth.size(); ++i) {
-    const Pose noisy = add_noise(truth.pos[i], 0.0015, rng);
+    const Pose noisy = jittered(truth.pos[i], rng, noise);
     Pose row = noisy;
     fit.apply(row);
     for (int j = 0; j < hs::kJointCount; ++j)
@@ -83,11 +77,12 @@ TEST_CASE("Palm fit: a clean moving hand comes out as it went in") {
 
 TEST_CASE("Palm fit: a joint that jumped is put back, a missing one is filled") {
   const hs::HandSeries truth = moving_hand(4.0);
-  std::mt19937 rng(5);
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> noise(0.0, 0.0003);
   PalmFit fit;
   const int knuckle = hs::idx(Joint::IndexProximal), base = hs::idx(Joint::RingMetacarpal);
   for (size_t i = 0; i < truth.size(); ++i) {
-    Pose row = add_noise(truth.pos[i], 0.0003, rng);
+    Pose row = jittered(truth.pos[i], rng, noise);
     if (i == 200) row(knuckle, 1) += 0.03;  // a 30 mm jump of one joint for one frame
     if (i == 250) row.row(base).setConstant(std::nan(""));
     fit.apply(row);
@@ -163,9 +158,10 @@ TEST_CASE("Palm fit through make_filter: on for the networks by default, off for
   // Raw behind the fit answers what the fit makes of each row; after a tracking gap the
   // template is learnt anew (the hand may be another).
   const hs::HandSeries truth = moving_hand(3.0, 30.0);
-  std::mt19937 rng(9);
+  std::mt19937_64 rng(9);
+  std::normal_distribution<double> noise(0.0, 0.001);
   hs::HandSeries in = truth;
-  for (auto& p : in.pos) p = add_noise(p, 0.001, rng);
+  for (auto& p : in.pos) p = jittered(p, rng, noise);
   for (double& t : in.t)
     if (t >= 1.5) t += 1.0;  // a 1 s gap in the middle
   const auto filter = hs::make_filter(c);

@@ -6,6 +6,7 @@
 
 #include <cstdlib>
 #include <filesystem>
+#include <random>
 #include <string>
 
 #include <sys/wait.h>
@@ -19,6 +20,14 @@ inline std::filesystem::path fixture(const std::string& name) { return std::file
 inline std::filesystem::path shared_data() {
   std::filesystem::path p(HS_SHARED_DATA);
   return std::filesystem::is_directory(p) ? p : std::filesystem::path{};
+}
+
+// p with white noise added to every coordinate, joint-major (the draw order is part of
+// each test's seeded sequence).
+inline Pose jittered(Pose p, std::mt19937_64& rng, std::normal_distribution<double>& noise) {
+  for (int j = 0; j < kJointCount; ++j)
+    for (int c = 0; c < 3; ++c) p(j, c) += noise(rng);
+  return p;
 }
 
 inline std::filesystem::path temp_dir(const std::string& name) {

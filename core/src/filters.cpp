@@ -17,7 +17,6 @@
 
 #include <array>
 #include <cmath>
-#include <cstdlib>
 #include <limits>
 #include <numbers>
 #include <stdexcept>
@@ -48,8 +47,8 @@ class JointwiseFilter : public PoseFilter {
   }
 
   bool push(double t, const Pose& observed) noexcept override {
+    if (!is_next_time(t, last_t_)) return false;
     const bool has_time = !std::isnan(last_t_);
-    if (!std::isfinite(t) || (has_time && !(t > last_t_))) return false;
     derived().on_frame(has_time ? t - last_t_ : kNaN);
     for (int j = 0; j < kJointCount; ++j) {
       if (!joint_finite(observed, j)) continue;  // missing joint: keep its state
@@ -245,7 +244,7 @@ class PalmFitFilter final : public PoseFilter {
   }
   bool push(double t, const Pose& observed) noexcept override {
     const double last = inner_->last_time();
-    if (!std::isfinite(t) || (std::isfinite(last) && !(t > last))) return false;  // as the filters refuse it
+    if (!is_next_time(t, last)) return false;  // before the fit learns from a row the filter refuses
     // After a tracking gap the hand may be another (or the tracker re-estimates its
     // shape, as Leap Motion does): the template is learnt anew.
     if (std::isfinite(last) && t - last > kModelResetGapS) fit_.reset();

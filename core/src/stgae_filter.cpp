@@ -66,7 +66,7 @@ class StgaeFilter final : public PoseFilter {
   }
 
   bool push(double t, const Pose& observed) noexcept override {
-    if (!std::isfinite(t) || (!std::isnan(last_t_) && t <= last_t_)) return false;
+    if (!is_next_time(t, last_t_)) return false;
     if (!push_row(t, observed)) return true;  // hand lost in this frame
     if (gained_ && latest_ >= 0) {
       answer(t, ans_);

@@ -11,6 +11,7 @@
 #include "handsteady/track.hpp"
 
 #include <array>
+#include <cmath>
 #include <memory>
 #include <optional>
 #include <span>
@@ -21,6 +22,11 @@
 namespace hs {
 
 struct StgaeModel;  // stgae_model.hpp
+
+// What push() accepts: a finite time after the last accepted one (last NaN: none yet).
+inline bool is_next_time(double t, double last) noexcept {
+  return std::isfinite(t) && (std::isnan(last) || t > last);
+}
 
 class PoseFilter {
  public:
