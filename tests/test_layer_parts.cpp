@@ -17,6 +17,8 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <string>
+#include <vector>
 
 using namespace hs;
 using namespace hs::layer;
@@ -344,5 +346,47 @@ TEST_CASE("configuration: read_layer_config applies the file and the environment
   ::setenv("HANDSTEADY_MODE", "denoise", 1);  // the environment overrides the file
   CHECK(hs::layer::read_layer_config().config.mode == hs::layer::Mode::Denoise);
   for (const char* v : {"HANDSTEADY_CONFIG", "HANDSTEADY_MODEL", "HANDSTEADY_MODE"}) ::unsetenv(v);
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("configuration: palm_fit switches the rigid-palm fit for any engine, auto leaves make_filter's default, a bad value warns") {
+  auto parse = [](const char* text, std::vector<std::string>& warnings) {
+    return hs::layer::parse_layer_config_json(text, "cfg.json", warnings);
+  };
+  std::vector<std::string> w;
+  CHECK_FALSE(parse("{}", w).filter.palm_fit.has_value());
+  CHECK(parse(R"({"palm_fit": false})", w).filter.palm_fit == false);
+  CHECK(parse(R"({"palm_fit": "on"})", w).filter.palm_fit == true);
+  CHECK_FALSE(parse(R"({"palm_fit": "auto"})", w).filter.palm_fit.has_value());
+  CHECK(w.empty());
+  hs::FilterConfig kept = parse(R"({"palm_fit": "sometimes"})", w).filter;
+  CHECK_FALSE(kept.palm_fit.has_value());
+  REQUIRE(w.size() == 1);
+  CHECK(w[0].find("cfg.json: palm_fit") != std::string::npos);
+  CHECK(w[0].find("sometimes") != std::string::npos);
+  (void)parse(R"({"palm_fit": 1})", w);
+  REQUIRE(w.size() == 2);
+  CHECK(w[1].find("'palm_fit' must be") != std::string::npos);
+  // What the setting does: the classical engine gets the fit only when asked.
+  hs::FilterConfig oneeuro = parse(R"({"method": "oneeuro", "palm_fit": true})", w).filter;
+  CHECK(hs::palm_fit_on(oneeuro));
+  oneeuro.palm_fit.reset();
+  CHECK_FALSE(hs::palm_fit_on(oneeuro));
+  // The environment overrides the file.
+  const auto dir = hs::test::temp_dir("layer_palm_fit_config");
+  const auto cfg = dir / "cfg.json";
+  std::ofstream(cfg) << R"({"method": "kalman", "palm_fit": true})";
+  ::setenv("HANDSTEADY_CONFIG", cfg.c_str(), 1);
+  for (const char* v : {"HANDSTEADY_MODE", "HANDSTEADY_METHOD", "HANDSTEADY_MODEL"}) ::unsetenv(v);
+  ::setenv("HANDSTEADY_PALM_FIT", "off", 1);
+  hs::layer::LoadedConfig read = hs::layer::read_layer_config();
+  CHECK(read.config.filter.palm_fit == false);
+  CHECK(read.warnings.empty());
+  ::setenv("HANDSTEADY_PALM_FIT", "maybe", 1);
+  read = hs::layer::read_layer_config();
+  CHECK(read.config.filter.palm_fit == true);  // the file's, kept
+  REQUIRE(read.warnings.size() == 1);
+  CHECK(read.warnings[0].find("HANDSTEADY_PALM_FIT") != std::string::npos);
+  for (const char* v : {"HANDSTEADY_CONFIG", "HANDSTEADY_PALM_FIT"}) ::unsetenv(v);
   std::filesystem::remove_all(dir);
 }

@@ -12,6 +12,10 @@ namespace {
 
 using V3 = Eigen::Vector3d;
 
+// The running median residual moves this share of itself (at least of the floor) a row.
+constexpr double kPalmMedianStep = 0.05;
+constexpr double kPalmMedianFloorM = 0.0005;
+
 struct Rigid {
   Eigen::Matrix3d r = Eigen::Matrix3d::Identity();
   V3 t = V3::Zero();
@@ -56,6 +60,42 @@ bool kabsch(const std::array<V3, P>& a, const std::array<V3, P>& b, const std::a
   return true;
 }
 
+// How far each used joint disagrees with the template by its distances to the other used
+// joints, which do not change with the hand's pose (so this needs no fit): a low quantile
+// of |distance - s * template distance| over the others. s is the hand's size: the last
+// fit's (it changes slowly; a median over pairs would be pulled by the joints that jumped),
+// else the median ratio. A joint that jumped disagrees with most others; a good joint only
+// with the few that jumped. Unused joints score 0.
+template <size_t P>
+void distance_scores(const std::array<V3, P>& a, const std::array<V3, P>& b, const std::array<bool, P>& use,
+                     double s, std::array<double, P>& score) {
+  std::array<double, P * P> ratio{};
+  size_t n = 0;
+  for (size_t i = 0; i < P; ++i)
+    for (size_t j = i + 1; j < P; ++j)
+      if (use[i] && use[j]) {
+        const double d0 = (a[i] - a[j]).norm();
+        if (d0 > 0.0) ratio[n++] = (b[i] - b[j]).norm() / d0;
+      }
+  score.fill(0.0);
+  if (n == 0) return;
+  if (!(s > 0.0)) {
+    std::nth_element(ratio.begin(), ratio.begin() + n / 2, ratio.begin() + n);
+    s = ratio[n / 2];
+  }
+  std::array<double, P> dev{};
+  for (size_t i = 0; i < P; ++i) {
+    if (!use[i]) continue;
+    size_t m = 0;
+    for (size_t j = 0; j < P; ++j)
+      if (j != i && use[j]) dev[m++] = std::abs((b[i] - b[j]).norm() - s * (a[i] - a[j]).norm());
+    if (m == 0) continue;
+    const size_t q = (m - 1) / 3;
+    std::nth_element(dev.begin(), dev.begin() + q, dev.begin() + m);
+    score[i] = dev[q];
+  }
+}
+
 }  // namespace
 
 void PalmFit::reset() noexcept {
@@ -63,8 +103,16 @@ void PalmFit::reset() noexcept {
   count_.fill(0.0);
   rows_ = 0;
   resid2_ = resid_rows_ = 0.0;
-  resid_.fill(0.0);
-  resid_n_.fill(0.0);
+  median_.fill(0.0);
+  median_n_.fill(0);
+  off_run_.fill(0);
+  unfit_run_ = 0;
+  last_scale_ = 0.0;
+}
+
+void PalmFit::learn(size_t i, const V3& local) noexcept {
+  count_[i] = std::min(count_[i] + 1.0, kPalmTemplateRows);
+  for (int k = 0; k < 3; ++k) tmpl_[i][static_cast<size_t>(k)] += (local(k) - tmpl_[i][static_cast<size_t>(k)]) / count_[i];
 }
 
 void PalmFit::apply(Pose& pose) noexcept {
@@ -92,35 +140,62 @@ void PalmFit::apply(Pose& pose) noexcept {
     return;
   }
   if (n_use < kPalmMinPoints) return;
-  // Joints that do not move with the palm in this tracker (their running residual far
-  // above the others') are neither fitted nor answered: they pass through.
+  // Joints that do not move with the palm in this tracker (their median residual far
+  // above the median joint's; a median, so a joint that often jumps is not taken for one)
+  // are neither fitted nor answered: they pass through.
   std::array<double, kP> sorted{};
   int n_r = 0;
   for (size_t i = 0; i < kP; ++i)
-    if (known[i] && resid_n_[i] > 0.0) sorted[static_cast<size_t>(n_r++)] = resid_[i];
+    if (known[i] && median_n_[i] > 0) sorted[static_cast<size_t>(n_r++)] = median_[i];
   double typical = 0.0;
   if (n_r > 0) {
     std::nth_element(sorted.begin(), sorted.begin() + n_r / 2, sorted.begin() + n_r);
     typical = sorted[static_cast<size_t>(n_r / 2)];
   }
+  const double rigid_limit = std::hypot(kPalmRigidFactor * typical, kPalmRigidFloorM);
   std::array<bool, kP> rigid{};
-  for (size_t i = 0; i < kP; ++i)
-    rigid[i] = known[i] && !(resid_n_[i] >= kPalmMinRows &&
-                             resid_[i] > kPalmRigidFactor * typical + kPalmRigidFloorM * kPalmRigidFloorM);
+  for (size_t i = 0; i < kP; ++i) rigid[i] = known[i] && !(median_n_[i] >= kPalmMinRows && median_[i] > rigid_limit);
   n_use = 0;
   for (size_t i = 0; i < kP; ++i) {
     use[i] = use[i] && rigid[i];
     n_use += use[i];
   }
   if (n_use < kPalmMinPoints) return;
-  // Joints far off the fit leave it one at a time, the worst first, and the rest are
-  // refitted (robust to a few joints that jumped: one 30 mm jump pulls a least-squares fit
-  // of 11 points by ~3 mm, so a single cut after one fit would drop good joints too).
-  const double scale = resid_rows_ >= 1.0 ? std::sqrt(resid2_) : std::numeric_limits<double>::infinity();
+  // Outliers leave the fit one at a time, the worst first, and the rest are refitted
+  // (robust to a few joints that jumped: one 30 mm jump pulls a least-squares fit of 11
+  // points by ~3 mm, so a single cut after one fit would drop good joints too). The first
+  // to leave are those whose distances to the others disagree with the template (several
+  // large jumps in one row can pull a fit so far that its worst joint is a good one); the
+  // rest leave by their residual. Joints that left by distance come back if the final fit
+  // agrees with them. Before the residual is known, a fixed cut: an infinite one would let
+  // the first rows' outliers into the template and the residual scale.
+  const double scale = resid_rows_ >= 1.0 ? std::sqrt(resid2_) : kPalmFirstCutM / kPalmOutlier;
   const double cut = std::max(kPalmOutlier * scale, kPalmOutlierFloorM);
+  std::array<double, kP> score{};
+  distance_scores(a, b, use, last_scale_, score);
+  const std::array<bool, kP> candidate = use;
+  int n_in = n_use, left = 0;
+  auto too_many = [&] {
+    // Too many disagree: no fit this row. Many such rows running: the hand is not the one
+    // the template learnt (a tracker that changed its shape), so it is learnt anew.
+    if (++unfit_run_ >= kPalmRestartRows) reset();
+  };
+  for (;;) {
+    size_t worst = kP;
+    double worst_score = cut;
+    for (size_t i = 0; i < kP; ++i)
+      if (use[i] && score[i] > worst_score) {
+        worst_score = score[i];
+        worst = i;
+      }
+    if (worst == kP) break;
+    if (left == kPalmMaxOutliers || n_in <= kPalmMinPoints) return too_many();
+    use[worst] = false;
+    --n_in;
+    ++left;
+  }
   Rigid fit;
-  int n_in = n_use;
-  for (int round = 0;; ++round) {
+  for (;;) {
     if (!kabsch(a, b, use, fit)) return;
     size_t worst = kP;
     double worst2 = cut * cut;
@@ -133,26 +208,46 @@ void PalmFit::apply(Pose& pose) noexcept {
         }
       }
     if (worst == kP) break;
-    if (round == kPalmMaxOutliers || n_in <= kPalmMinPoints) return;  // too many disagree: no fit this row
+    if (left == kPalmMaxOutliers || n_in <= kPalmMinPoints) return too_many();
     use[worst] = false;
     --n_in;
+    ++left;
   }
+  bool back = false;
+  for (size_t i = 0; i < kP; ++i)
+    if (candidate[i] && !use[i] && (fit.apply(a[i]) - b[i]).squaredNorm() <= cut * cut) {
+      use[i] = back = true;
+      ++n_in;
+    }
+  if (back && !kabsch(a, b, use, fit)) return;
+  unfit_run_ = 0;
+  last_scale_ = fit.s;
   // Learn: the inliers (and joints the template does not know yet) in the template's frame;
-  // every present joint's residual (winsorised at the cut, so one jump does not make a
-  // joint non-rigid).
+  // every present joint's median residual; the inliers' squared residual (winsorised at the
+  // cut) for the next row's scale. An outlier several rows running is a template point
+  // learnt wrong, or a shape the tracker changed: it is learnt anew from this row.
   double rs = 0.0;
   for (size_t i = 0; i < kP; ++i) {
     if (!have[i]) continue;
-    if (known[i]) {
-      const double e2 = std::min((fit.apply(a[i]) - b[i]).squaredNorm(), cut * cut);
-      resid_n_[i] = std::min(resid_n_[i] + 1.0, kPalmTemplateRows);
-      resid_[i] += (e2 - resid_[i]) / resid_n_[i];
-      if (use[i]) rs += e2;
-    }
-    if (known[i] && !use[i] && rigid[i]) continue;  // an outlier this row
     const V3 local = fit.invert(b[i]);
-    count_[i] = std::min(count_[i] + 1.0, kPalmTemplateRows);
-    for (int k = 0; k < 3; ++k) tmpl_[i][static_cast<size_t>(k)] += (local(k) - tmpl_[i][static_cast<size_t>(k)]) / count_[i];
+    if (!known[i]) {
+      learn(i, local);
+      continue;
+    }
+    const double e = (fit.apply(a[i]) - b[i]).norm();
+    // Running median (a stochastic step towards it, relative to its size).
+    median_[i] += kPalmMedianStep * std::max(median_[i], kPalmMedianFloorM) * (e > median_[i] ? 1.0 : -1.0);
+    median_[i] = std::max(median_[i], 0.0);
+    median_n_[i] = std::min(median_n_[i] + 1, 1 << 20);
+    if (use[i]) rs += std::min(e * e, cut * cut);
+    if (use[i] || !rigid[i]) {
+      off_run_[i] = 0;
+      learn(i, local);
+    } else if (++off_run_[i] >= kPalmRelearnRows) {  // an outlier this row
+      tmpl_[i] = {local.x(), local.y(), local.z()};
+      count_[i] = 1.0;
+      off_run_[i] = 0;
+    }
   }
   resid_rows_ = std::min(resid_rows_ + 1.0, kPalmTemplateRows);
   resid2_ += (rs / n_in - resid2_) / resid_rows_;

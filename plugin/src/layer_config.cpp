@@ -103,6 +103,12 @@ struct Applier {
     if (v >= 0 && v <= kStgaeMaxPhases && v == std::floor(v)) c.filter.stgae.phases = static_cast<int>(v);
     else warnings.push_back(where + ": must be an integer in [0, " + std::to_string(kStgaeMaxPhases) + "]");
   }
+  void palm_fit(const std::string& v, const std::string& where) {
+    if (v == "on" || v == "true" || v == "1") c.filter.palm_fit = true;
+    else if (v == "off" || v == "false" || v == "0") c.filter.palm_fit = false;
+    else if (v == "auto") c.filter.palm_fit.reset();
+    else warnings.push_back(where + ": unknown palm fit setting '" + v + "' (auto, on, off)");
+  }
   void log_level(const std::string& v, const std::string& where) {
     if (auto l = parse_level(v)) c.log_level = *l;
     else warnings.push_back(where + ": unknown log level '" + v + "' (off, error, warn, info, debug)");
@@ -155,6 +161,11 @@ void apply_json(std::string_view text, const std::string& where, Applier& a) {
     else a.warnings.push_back(where + ": 'stgae_phases' must be a number");
   }
   if (auto v = str("worker")) a.worker(*v, where + ": worker");
+  if (j.contains("palm_fit")) {
+    if (j["palm_fit"].is_boolean()) a.c.filter.palm_fit = j["palm_fit"].get<bool>();
+    else if (j["palm_fit"].is_string()) a.palm_fit(j["palm_fit"].get<std::string>(), where + ": palm_fit");
+    else a.warnings.push_back(where + ": 'palm_fit' must be true, false or \"auto\"");
+  }
   auto number = [&](const nlohmann::json& obj, const char* key, const std::string& at, auto&& apply) {
     if (!obj.contains(key)) return;
     if (obj[key].is_number()) apply(obj[key].get<double>(), at + ": " + key);
@@ -255,10 +266,12 @@ void resolve_engine(LayerConfig& c, std::vector<LogMessage>& messages) {
     stgae.stgae.source = file.string();
     // Checks the model can stream (causal, 26 joints, the method's family) before any tracker exists.
     (void)make_filter(stgae);
+    const bool palm = palm_fit_on(stgae);
     c.filter = std::move(stgae);
     c.model_path = file.string();
     messages.push_back({LogLevel::Info, "engine " + net_name + ": model " + file.string() +
-                                            (requested ? " (method " + net_name + ")" : " (default: a model was found)")});
+                                            (requested ? " (method " + net_name + ")" : " (default: a model was found)") +
+                                            (palm ? ", palm fit on" : ", palm fit off")});
   } catch (const std::exception& e) {
     messages.push_back({LogLevel::Error, "engine " + fallback + ": the " + net_name + " model " + file.string() +
                                              " cannot be used: " + e.what()});
@@ -333,6 +346,7 @@ LoadedConfig read_layer_config() {
     if (auto d = parse_double(*v)) a.stgae_phases(*d, "HANDSTEADY_STGAE_PHASES");
     else out.warnings.push_back("HANDSTEADY_STGAE_PHASES: not a number: '" + *v + "'");
   }
+  if (auto v = env("HANDSTEADY_PALM_FIT")) a.palm_fit(*v, "HANDSTEADY_PALM_FIT");
   if (auto v = env("HANDSTEADY_LOG")) a.log_level(*v, "HANDSTEADY_LOG");
   if (auto v = env("HANDSTEADY_RECORD")) c.record_dir = *v;
   if (auto v = env("HANDSTEADY_WORKER")) a.worker(*v, "HANDSTEADY_WORKER");

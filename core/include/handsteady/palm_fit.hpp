@@ -14,15 +14,20 @@
 // and uniform scale, since some trackers re-estimate the hand's size as they go), leaves
 // joints far off the fit out of it, one at a time, worst first (outliers: a joint that
 // jumped is put back where the palm says it is, and does not teach the template), and
-// fills missing palm joints from the fit once the template knows them. A joint whose
-// running residual stays far above the other joints' does not move with the palm in this
-// tracker (ManipNet's THUMB_METACARPAL sits on the moving thumb): it passes through.
-// Nothing changes until kPalmMinRows rows have taught the template, or where fewer than
+// fills missing palm joints from the fit once the template knows them. Robust to its own
+// mistakes: a joint off the fit several rows running is not an outlier but a template
+// point learnt wrong (or a shape the tracker changed), and is learnt anew; rows no fit
+// agrees with, many running, start a new template. A joint whose typical (median)
+// residual stays far above the other joints' does not move with the palm in this tracker
+// (ManipNet's THUMB_METACARPAL sits on the moving thumb): it passes through. Nothing
+// changes until kPalmMinRows rows have taught the template, or where fewer than
 // kPalmMinPoints palm joints are present. Other joints are never touched.
 // noexcept, no allocation. make_filter puts it in front of the network methods by default
 // (FilterConfig::palm_fit). docs/FILTERS.md "Palm fit".
 #include "handsteady/skeleton.hpp"
 #include "handsteady/track.hpp"
+
+#include <Eigen/Core>
 
 #include <array>
 
@@ -35,13 +40,16 @@ inline constexpr std::array<int, 11> kPalmJoints = {
     idx(Joint::RingProximal),   idx(Joint::LittleMetacarpal), idx(Joint::LittleProximal)};
 
 inline constexpr double kPalmTemplateRows = 120.0;  // rows in the template's running mean
-inline constexpr int kPalmMinRows = 10;             // rows that teach the template before the fit applies
+inline constexpr int kPalmMinRows = 5;              // rows that teach the template before the fit applies
 inline constexpr int kPalmMinPoints = 5;            // palm joints a fit needs
 inline constexpr double kPalmOutlier = 4.0;         // a joint this many residual RMS off is left out
 inline constexpr double kPalmOutlierFloorM = 0.003; // ... and at least this far (m)
-inline constexpr int kPalmMaxOutliers = 3;          // joints left out of one row's fit at most
-inline constexpr double kPalmRigidFactor = 4.0;     // a joint whose mean squared residual is this many
-inline constexpr double kPalmRigidFloorM = 0.001;   // times the median's (plus this squared) is not rigid
+inline constexpr double kPalmFirstCutM = 0.010;     // ... or this far before the residual is known
+inline constexpr int kPalmMaxOutliers = 5;          // joints left out of one row's fit at most (6 of 11 decide)
+inline constexpr int kPalmRelearnRows = 4;          // an outlier this many rows running is learnt anew
+inline constexpr int kPalmRestartRows = 10;         // rows running without a fit start a new template
+inline constexpr double kPalmRigidFactor = 2.0;     // a joint whose median residual is this many times
+inline constexpr double kPalmRigidFloorM = 0.001;   // the median joint's (plus this, in quadrature) is not rigid
 
 class PalmFit {
  public:
@@ -56,11 +64,16 @@ class PalmFit {
 
  private:
   static constexpr size_t kP = kPalmJoints.size();
+  void learn(size_t i, const Eigen::Vector3d& local) noexcept;  // one row more of template point i
   std::array<std::array<double, 3>, kP> tmpl_{};  // the template, in its own frame
   std::array<double, kP> count_{};                // rows each template point has learnt from
   int rows_ = 0;
   double resid2_ = 0.0, resid_rows_ = 0.0;  // running mean of an inlier's squared residual (m^2)
-  std::array<double, kP> resid_{}, resid_n_{};  // each joint's running mean squared residual (m^2)
+  std::array<double, kP> median_{};             // each joint's running median residual (m)
+  std::array<int, kP> median_n_{};              // rows it has followed
+  std::array<int, kP> off_run_{};               // rows running the joint was an outlier
+  int unfit_run_ = 0;                           // rows running with no fit
+  double last_scale_ = 0.0;                     // the last fit's scale (0: none yet)
 };
 
 }  // namespace hs
