@@ -175,43 +175,39 @@ void PalmFit::apply(Pose& pose) noexcept {
   distance_scores(a, b, use, last_scale_, score);
   const std::array<bool, kP> candidate = use;
   int n_in = n_use, left = 0;
-  auto too_many = [&] {
-    // Too many disagree: no fit this row. Many such rows running: the hand is not the one
-    // the template learnt (a tracker that changed its shape), so it is learnt anew.
-    if (++unfit_run_ >= kPalmRestartRows) reset();
-  };
-  for (;;) {
+  // The used joint with the largest error above `limit` (kP: none).
+  auto worst_above = [&](const std::array<double, kP>& err, double limit) {
     size_t worst = kP;
-    double worst_score = cut;
     for (size_t i = 0; i < kP; ++i)
-      if (use[i] && score[i] > worst_score) {
-        worst_score = score[i];
+      if (use[i] && err[i] > limit) {
+        limit = err[i];
         worst = i;
       }
-    if (worst == kP) break;
-    if (left == kPalmMaxOutliers || n_in <= kPalmMinPoints) return too_many();
-    use[worst] = false;
+    return worst;
+  };
+  // Leaves joint i out of the fit; false when too many disagree: no fit this row. Many
+  // such rows running: the hand is not the one the template learnt (a tracker that
+  // changed its shape), so it is learnt anew.
+  auto leave = [&](size_t i) {
+    if (left == kPalmMaxOutliers || n_in <= kPalmMinPoints) {
+      if (++unfit_run_ >= kPalmRestartRows) reset();
+      return false;
+    }
+    use[i] = false;
     --n_in;
     ++left;
-  }
+    return true;
+  };
+  for (size_t w; (w = worst_above(score, cut)) != kP;)
+    if (!leave(w)) return;
   Rigid fit;
+  std::array<double, kP> resid{};
   for (;;) {
     if (!kabsch(a, b, use, fit)) return;
-    size_t worst = kP;
-    double worst2 = cut * cut;
-    for (size_t i = 0; i < kP; ++i)
-      if (use[i]) {
-        const double e2 = (fit.apply(a[i]) - b[i]).squaredNorm();
-        if (e2 > worst2) {
-          worst2 = e2;
-          worst = i;
-        }
-      }
-    if (worst == kP) break;
-    if (left == kPalmMaxOutliers || n_in <= kPalmMinPoints) return too_many();
-    use[worst] = false;
-    --n_in;
-    ++left;
+    for (size_t i = 0; i < kP; ++i) resid[i] = use[i] ? (fit.apply(a[i]) - b[i]).norm() : 0.0;
+    const size_t w = worst_above(resid, cut);
+    if (w == kP) break;
+    if (!leave(w)) return;
   }
   bool back = false;
   for (size_t i = 0; i < kP; ++i)
