@@ -31,6 +31,7 @@ struct BenchmarkOptions {
   bool no_default_model = false;
   bool unbounded = false;  // also each model without its trust region
   bool gain = false;       // also each model with its correction gain
+  bool unsmoothed = false; // also each model without its prediction smoothing
   bool palm_fit = false;   // also raw and tuned One Euro behind the palm fit, and each model without it
   bench::Options run;
 };
@@ -101,6 +102,11 @@ void run_benchmark(const BenchmarkOptions& o, const std::string& command) {
       g.stgae.gain = true;
       methods.push_back({label + "-gain", [g](const std::string&) { return make_filter(g); }, true});
     }
+    if (o.unsmoothed) {
+      FilterConfig u = c;
+      u.stgae.smooth = false;
+      methods.push_back({label + "-unsmoothed", [u](const std::string&) { return make_filter(u); }, true});
+    }
     if (o.unbounded) {
       c.stgae.bounded = false;
       methods.push_back({label + "-unbounded", [c](const std::string&) { return make_filter(c); }, true});
@@ -137,6 +143,11 @@ void setup_benchmark(CLI::App& app) {
                 "Also score each model with its correction gain (label LABEL-gain; docs/STGAE.md \"Correction gain\")");
   sub->add_flag("--unbounded", o->unbounded,
                 "Also score each model without its trust region (label LABEL-unbounded; docs/STGAE.md)");
+  sub->add_flag("--unsmoothed", o->unsmoothed,
+                "Also score each model without its prediction smoothing (label LABEL-unsmoothed; docs/STGAE.md "
+                "\"Prediction smoothing\")");
+  sub->add_flag("--tuning-split", o->run.tuning_split,
+                "Score the tuning sets instead of the test sets (for choosing a method's constants; docs/BENCHMARK.md)");
   sub->add_flag("--quick", o->run.quick, "The CI subset: ~20 s of each set, one strength per family");
   sub->add_option("--threads", o->run.threads, "Worker threads")->capture_default_str()->check(CLI::Range(1, 64));
   sub->add_option("--seed", o->run.seed, "Seed of every corruption and timing jitter")->capture_default_str();

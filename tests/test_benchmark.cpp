@@ -242,6 +242,19 @@ TEST_CASE("the grid on synthetic motion: noise is what it says, filters are scor
   CHECK(offset_out->occluded.joint_samples == raw_out->occluded.joint_samples);
   CHECK(raw->occluded.joint_samples < raw->at[0].joint_samples / 1000 + 1);
   CHECK(md.find("## Occluded joints") != std::string::npos);
+  // The tuning split scored instead (for choosing a method's constants): its set only.
+  bench::Options ot = o;
+  ot.tuning_split = true;
+  bench::Report rt;
+  rt.tuned = r.tuned;
+  bench::run_grid(sets, bench::classical_methods(rt.tuned), ot, rt);
+  REQUIRE(!rt.results.empty());
+  for (const auto& x : rt.results) CHECK(x.cell.dataset == "synth-tuning");
+  CHECK(rt.tuning_split);
+  const std::string mdt = bench::report_markdown(rt, ot);
+  CHECK(mdt.find("Scored on the tuning split") != std::string::npos);
+  CHECK(mdt.find("noise cells of the tuning sets") != std::string::npos);
+  CHECK(md.find("Scored on the tuning split") == std::string::npos);
 }
 
 TEST_CASE("handsteady benchmark --quick on the shared recordings writes the report") {

@@ -338,7 +338,7 @@ std::unique_ptr<PoseFilter> make_method_filter(const FilterConfig& c) {
         throw std::invalid_argument(fmt::format("method {} needs a model of its family; {} is a {} model",
                                                 filter_method_name(c.method), c.stgae.source,
                                                 filter_method_name(network_method(*c.stgae.model))));
-      return make_stgae_filter(c.stgae.model, 0.0, c.stgae.phases, c.stgae.bounded, c.stgae.gain);
+      return make_stgae_filter(c.stgae.model, 0.0, c.stgae.phases, c.stgae.bounded, c.stgae.gain, c.stgae.smooth);
   }
   throw std::invalid_argument("unknown filter method");
 }
@@ -383,11 +383,12 @@ std::string filter_params_summary(const FilterConfig& c) {
       const StgaeParams& p = c.stgae;
       if (!p.model) return fmt::format("model={} (not loaded)", p.source);
       const StgaeConfig& m = p.model->config;
-      return fmt::format("model={} rate_hz={} window={} horizon_frames={} padding={} mode={} phases={}{}{}", p.source,
+      return fmt::format("model={} rate_hz={} window={} horizon_frames={} padding={} mode={} phases={}{}{}{}", p.source,
                          m.rate_hz, m.window, m.predict ? m.horizon : 0,
                          m.padding == StgaePadding::Causal ? "causal" : "centred",
                          p.offline ? "offline" : "streaming", p.phases == 0 ? std::string("auto") : std::to_string(p.phases),
-                         p.bounded ? "" : " unbounded", p.bounded && p.gain ? " gain" : "") + fit;
+                         p.bounded ? "" : " unbounded", p.bounded && p.gain ? " gain" : "",
+                         p.bounded && !p.smooth && !p.offline ? " unsmoothed" : "") + fit;
     }
   }
   return s + fmt::format("max_gap_ms={}", c.max_gap_s * 1e3) + fit;

@@ -7,6 +7,7 @@
 // to one model period ahead (whose error shows as a jump at every model tick).
 #include "handsteady/correction_bound.hpp"
 #include "handsteady/correction_gain.hpp"
+#include "handsteady/prediction_smoothing.hpp"
 #include "handsteady/stgae_engine.hpp"
 #include "handsteady/stgae_filter.hpp"
 #include "handsteady/time_series.hpp"
@@ -34,8 +35,9 @@ struct PhaseOutput {
 
 class StgaeFilter final : public PoseFilter {
  public:
-  StgaeFilter(std::shared_ptr<const StgaeModel> model, int phases, bool bounded, bool gain)
-      : model_(std::move(model)), fixed_phases_(phases), bounded_(bounded), gained_(bounded && gain) {
+  StgaeFilter(std::shared_ptr<const StgaeModel> model, int phases, bool bounded, bool gain, bool smooth)
+      : model_(std::move(model)), fixed_phases_(phases), bounded_(bounded), gained_(bounded && gain),
+        smoothed_(bounded && smooth) {
     const auto& c = model_->config;
     n_ = c.joint_count();
     if (n_ != kJointCount) throw std::invalid_argument("the STGAE filter needs a 26-joint (xr26) model");
@@ -52,6 +54,7 @@ class StgaeFilter final : public PoseFilter {
       o.den_prev.assign(fs, kNaN);
       bounds_[static_cast<size_t>(k)] = CorrectionBound(dt_frames_ + 1);
     }
+    smoother_ = PredictionSmoother(dt_frames_ + 1);
     reset();
   }
 
@@ -224,6 +227,7 @@ class StgaeFilter final : public PoseFilter {
   void restart_grid() noexcept {
     for (auto& stream : streams_) stream->reset();
     for (auto& b : bounds_) b.reset();
+    smoother_.reset();
     gain_.restart();
     for (PhaseOutput& o : out_) o.have = o.have_prev = false;
     have_grid_ = false;
@@ -311,6 +315,7 @@ class StgaeFilter final : public PoseFilter {
       std::copy(p.begin(), p.end(), o.path.begin() + static_cast<std::ptrdiff_t>((static_cast<size_t>(i) + 1) * p.size()));
     }
     if (bounded_) bounds_[static_cast<size_t>(phase)].apply(frame, o.path);
+    if (smoothed_) smoother_.apply(t, o.path);
     o.t = t;
     o.have = true;
     // A stream started later (once the rate is known) answers from its first frame, as
@@ -327,6 +332,8 @@ class StgaeFilter final : public PoseFilter {
   std::array<CorrectionBound, kStgaeMaxPhases> bounds_;  // one per stream: its frames are a period apart
   bool bounded_ = true;
   bool gained_ = false;
+  bool smoothed_ = true;
+  PredictionSmoother smoother_;  // one for all streams (smoothed_): their frames in time order
   CorrectionGain gain_;          // how much of the answer's correction to keep (gained_)
   Pose ans_ = untracked_pose();  // the answer at the last row, before the gain
   int n_ = 0, dt_frames_ = 0, phases_ = 1, latest_ = -1, valid_rows_ = 0, mismatch_rows_ = 0;
@@ -345,7 +352,7 @@ class StgaeFilter final : public PoseFilter {
 }  // namespace
 
 std::unique_ptr<PoseFilter> make_stgae_filter(std::shared_ptr<const StgaeModel> model, double horizon_s, int phases,
-                                              bool bounded, bool gain) {
+                                              bool bounded, bool gain, bool smooth) {
   if (!model || !model->net) throw std::invalid_argument("make_stgae_filter: no model");
   if (model->config.padding != StgaePadding::Causal)
     throw std::invalid_argument("make_stgae_filter: streaming needs a causal model (this one is centred)");
@@ -354,7 +361,7 @@ std::unique_ptr<PoseFilter> make_stgae_filter(std::shared_ptr<const StgaeModel> 
   if (phases < 0 || phases > kStgaeMaxPhases)
     throw std::invalid_argument("make_stgae_filter: phases must be 0 (from the input rate) to " +
                                 std::to_string(kStgaeMaxPhases));
-  return std::make_unique<StgaeFilter>(std::move(model), phases, bounded, gain);
+  return std::make_unique<StgaeFilter>(std::move(model), phases, bounded, gain, smooth);
 }
 
 }  // namespace hs

@@ -435,6 +435,8 @@ void tune_oneeuro(const std::vector<Dataset>& datasets, const Options& options, 
 void run_grid(const std::vector<Dataset>& datasets, const std::vector<Method>& methods, const Options& options,
               Report& report) {
   const auto t_start = std::chrono::steady_clock::now();
+  const Split scored = options.tuning_split ? Split::Tuning : Split::Test;
+  report.tuning_split = options.tuning_split;
   const auto noise = noise_grid(options.quick);
   const auto shapes = shape_variants(options.quick);
   const auto find_noise = [&](const std::string& family, const std::string& strength) -> const NoiseCell* {
@@ -463,7 +465,7 @@ void run_grid(const std::vector<Dataset>& datasets, const std::vector<Method>& m
   const NoiseCell* tracker_preset = find_noise("preset", "tracker");
   const NoiseCell* white = find_noise("white", "1.5mm");
   for (const Dataset& d : datasets) {
-    if (d.split != Split::Test) continue;
+    if (d.split != scored) continue;
     if (!d.has_truth) {
       specs.push_back({&d, Cell{"recorded", d.name, "recorded", "-", "-", 0.0, 0.0}, nullptr, shapes.front()});
       continue;
@@ -536,7 +538,7 @@ void run_grid(const std::vector<Dataset>& datasets, const std::vector<Method>& m
 
   // Still hands: start, resume, drift.
   for (const Dataset& d : datasets) {
-    if (d.split != Split::Test || !d.has_truth || !d.wide) continue;
+    if (d.split != scored || !d.has_truth || !d.wide) continue;
     const Hand hand = hand_series(d.clean, Hand::Right).empty() ? Hand::Left : Hand::Right;
     const HandSeries src = hand_series(d.clean, hand);
     std::vector<Pose> poses;  // complete poses at 1/4, 1/2, 3/4 of the recording

@@ -153,9 +153,9 @@ std::string criteria(const Report& r, const Index& ix) {
 std::string summary(const Report& r, const Index& ix) {
   const auto cells = cells_of(r, "noise");
   std::string s = fmt::format(
-      "Over the {} noise cells of the test sets: mean MPJPE (mm), mean lag (ms), mean E_bon (mm²), cells where the "
+      "Over the {} noise cells of the {} sets: mean MPJPE (mm), mean lag (ms), mean E_bon (mm²), cells where the "
       "method has the lowest MPJPE, and the median jitter / truth's jitter.\n\n",
-      cells.size());
+      cells.size(), r.tuning_split ? "tuning" : "test");
   s += "| method | H = 0 MPJPE | lag | E_bon | best | jitter ratio | 20 ms MPJPE | 50 ms MPJPE | best at 50 ms | 50 ms jitter ratio |\n"
        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   std::map<std::string, std::array<int, 2>> best;
@@ -245,6 +245,8 @@ std::string report_markdown(const Report& r, const Options& o) {
                    "runs causally; the answer at t + H is scored against the truth at t + H.\n\n",
                    r.results.size() / std::max<size_t>(1, r.methods.size()), r.methods.size(), o.seed,
                    o.quick ? "**quick subset**" : "full grid", r.seconds, o.threads);
+  if (o.tuning_split)
+    s += "**Scored on the tuning split** (for choosing constants; One Euro is tuned on the same sets).\n\n";
   for (const auto& n : r.notes) s += "- note: " + n + "\n";
   if (!r.notes.empty()) s += "\n";
 
@@ -376,6 +378,7 @@ std::string report_json(const Report& r, const Options& o) {
   json j;
   j["command"] = r.command;
   j["quick"] = o.quick;
+  j["tuning_split"] = o.tuning_split;
   j["seed"] = o.seed;
   j["seconds"] = r.seconds;
   j["methods"] = r.methods;

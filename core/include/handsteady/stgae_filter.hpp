@@ -24,10 +24,12 @@ namespace hs {
 // within the trust region of its input (correction_bound.hpp); false = the network's raw
 // answer (for comparison). `gain` (with bounded): the answers keep only the share of their
 // correction that the input's next rows confirm (correction_gain.hpp, fading out over one
-// model period ahead). Throws std::invalid_argument for a
-// centred model, a negative horizon or phases outside 0..kStgaeMaxPhases.
+// model period ahead). `smooth` (with bounded): the predicted frames' displacements are
+// smoothed over time (prediction_smoothing.hpp); false = each frame's own. Throws
+// std::invalid_argument for a centred model, a negative horizon or phases outside 0..kStgaeMaxPhases.
 inline constexpr int kStgaeMaxPhases = 4;
 std::unique_ptr<PoseFilter> make_stgae_filter(std::shared_ptr<const StgaeModel> model, double horizon_s,
-                                              int phases = 0, bool bounded = true, bool gain = false);
+                                              int phases = 0, bool bounded = true, bool gain = false,
+                                              bool smooth = true);
 
 }  // namespace hs

@@ -73,6 +73,9 @@ struct Options {
   bool quick = false;
   int threads = 2;
   uint64_t seed = 1;
+  // Score the tuning sets instead of the test sets: for choosing a method's own constants
+  // without looking at the test sets (One Euro is then tuned on the sets it is scored on).
+  bool tuning_split = false;
 };
 
 struct Cell {
@@ -131,6 +134,7 @@ struct Report {
   std::vector<std::string> methods;  // in the order given
   std::vector<std::string> models;   // those that are learnt models (the criteria are checked for them)
   std::string command;               // how the report was made (for its header)
+  bool tuning_split = false;         // the scored sets are the tuning split (Options::tuning_split)
   double seconds = 0;
 };
 
