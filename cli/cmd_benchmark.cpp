@@ -31,7 +31,7 @@ struct BenchmarkOptions {
   bool no_default_model = false;
   bool unbounded = false;  // also each model without its trust region
   bool gain = false;       // also each model with its correction gain
-  bool unsmoothed = false; // also each model without its prediction smoothing
+  bool smoothed = false;   // also each model with its prediction smoothing
   bool palm_fit = false;   // also raw and tuned One Euro behind the palm fit, and each model without it
   bench::Options run;
 };
@@ -102,10 +102,10 @@ void run_benchmark(const BenchmarkOptions& o, const std::string& command) {
       g.stgae.gain = true;
       methods.push_back({label + "-gain", [g](const std::string&) { return make_filter(g); }, true});
     }
-    if (o.unsmoothed) {
+    if (o.smoothed) {
       FilterConfig u = c;
-      u.stgae.smooth = false;
-      methods.push_back({label + "-unsmoothed", [u](const std::string&) { return make_filter(u); }, true});
+      u.stgae.smooth = true;
+      methods.push_back({label + "-smoothed", [u](const std::string&) { return make_filter(u); }, true});
     }
     if (o.unbounded) {
       c.stgae.bounded = false;
@@ -143,8 +143,8 @@ void setup_benchmark(CLI::App& app) {
                 "Also score each model with its correction gain (label LABEL-gain; docs/STGAE.md \"Correction gain\")");
   sub->add_flag("--unbounded", o->unbounded,
                 "Also score each model without its trust region (label LABEL-unbounded; docs/STGAE.md)");
-  sub->add_flag("--unsmoothed", o->unsmoothed,
-                "Also score each model without its prediction smoothing (label LABEL-unsmoothed; docs/STGAE.md "
+  sub->add_flag("--smoothed", o->smoothed,
+                "Also score each model with its prediction smoothing (label LABEL-smoothed; docs/STGAE.md "
                 "\"Prediction smoothing\")");
   sub->add_flag("--tuning-split", o->run.tuning_split,
                 "Score the tuning sets instead of the test sets (for choosing a method's constants; docs/BENCHMARK.md)");

@@ -10,6 +10,8 @@
 # (docs/STGAE.md "Trust region").
 # HS_FPHA_NOPALMFIT=1 adds `stgae-nopalmfit`: the network without the palm fit in front of
 # it (docs/FILTERS.md "Palm fit"; these were the `stgae` rows before 2026-11-24).
+# HS_FPHA_SMOOTHED=1 adds `stgae-smoothed`: the network's predictions smoothed over time
+# (opt-in; docs/STGAE.md "Prediction smoothing").
 # Usage: scripts/fpha_table.sh HANDSTEADY_BINARY SHARED_DATA_DIR OUT_DIR
 set -euo pipefail
 hs=$1; data=$2; out=$3
@@ -41,6 +43,12 @@ for preset in tracker paper tremor; do
     m=stgae-nopalmfit
     $hs filter --in "$d/noisy.csv" --out "$d/$m.csv" --method stgae --no-palm-fit >/dev/null
     $hs filter --in "$d/noisy.csv" --out "$d/${m}_h50.csv" --method stgae --no-palm-fit --horizon-ms 50 >/dev/null
+    den+=(--in "$m=$d/$m.csv"); pre+=(--in "$m=$d/${m}_h50.csv")
+  fi
+  if [ "${HS_FPHA_SMOOTHED:-0}" = 1 ] && [[ " ${methods[*]} " == *" stgae "* ]]; then
+    m=stgae-smoothed
+    $hs filter --in "$d/noisy.csv" --out "$d/$m.csv" --method stgae --smooth-predictions >/dev/null
+    $hs filter --in "$d/noisy.csv" --out "$d/${m}_h50.csv" --method stgae --smooth-predictions --horizon-ms 50 >/dev/null
     den+=(--in "$m=$d/$m.csv"); pre+=(--in "$m=$d/${m}_h50.csv")
   fi
   if [ -n "${HS_CENTRED_MODEL:-}" ]; then

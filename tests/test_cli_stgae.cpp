@@ -259,8 +259,8 @@ TEST_CASE("stgae at 90 Hz (3 streams by default) with a zero-offset model: each 
   CHECK(out.meta("filter").value_or("").find("phases=auto unbounded") != std::string::npos);
   const hs::Track gained = run_ok(in, dir, "--method stgae --gain --model " + quoted(models().zero_causal));
   CHECK(gained.meta("filter").value_or("").find("phases=auto gain") != std::string::npos);
-  const hs::Track rough = run_ok(in, dir, "--method stgae --unsmoothed --model " + quoted(models().zero_causal));
-  CHECK(rough.meta("filter").value_or("").find("phases=auto unsmoothed") != std::string::npos);
+  const hs::Track smooth = run_ok(in, dir, "--method stgae --smooth-predictions --model " + quoted(models().zero_causal));
+  CHECK(smooth.meta("filter").value_or("").find("phases=auto smoothed") != std::string::npos);
   double max_err = 0.0;
   long n = 0;
   for (size_t i = 0; i < in.rows.size(); ++i) {
@@ -357,13 +357,13 @@ TEST_CASE("stgae model errors: bad, missing or centred model files exit with sta
   CHECK(filter_cli(dir / "in.csv", dir / "out.csv",
                    "--method stgae --gain --unbounded --model " + quoted(models().random_causal), dir / "err.txt") == 2);
   CHECK(slurp(dir / "err.txt").find("--gain") != std::string::npos);
-  // --unsmoothed: Multi-STGAE streaming with its trust region only.
-  CHECK(filter_cli(dir / "in.csv", dir / "out.csv", "--method kalman --unsmoothed", dir / "err.txt") == 2);
-  CHECK(slurp(dir / "err.txt").find("--unsmoothed") != std::string::npos);
+  // --smooth-predictions: Multi-STGAE streaming with its trust region only.
+  CHECK(filter_cli(dir / "in.csv", dir / "out.csv", "--method kalman --smooth-predictions", dir / "err.txt") == 2);
+  CHECK(slurp(dir / "err.txt").find("--smooth-predictions") != std::string::npos);
   CHECK(filter_cli(dir / "in.csv", dir / "out.csv",
-                   "--method stgae --unsmoothed --unbounded --model " + quoted(models().random_causal),
+                   "--method stgae --smooth-predictions --unbounded --model " + quoted(models().random_causal),
                    dir / "err.txt") == 2);
-  CHECK(slurp(dir / "err.txt").find("--unsmoothed") != std::string::npos);
+  CHECK(slurp(dir / "err.txt").find("--smooth-predictions") != std::string::npos);
   // --phases: Multi-STGAE only, 0..4.
   CHECK(filter_cli(dir / "in.csv", dir / "out.csv", "--method kalman --phases 2", dir / "err.txt") == 2);
   CHECK(slurp(dir / "err.txt").find("--phases") != std::string::npos);

@@ -390,3 +390,39 @@ TEST_CASE("configuration: palm_fit switches the rigid-palm fit for any engine, a
   for (const char* v : {"HANDSTEADY_CONFIG", "HANDSTEADY_PALM_FIT"}) ::unsetenv(v);
   std::filesystem::remove_all(dir);
 }
+
+TEST_CASE("configuration: prediction_smoothing switches the network's prediction smoothing, off by default, a bad value warns") {
+  auto parse = [](const char* text, std::vector<std::string>& warnings) {
+    return hs::layer::parse_layer_config_json(text, "cfg.json", warnings);
+  };
+  std::vector<std::string> w;
+  CHECK_FALSE(parse("{}", w).filter.stgae.smooth);
+  CHECK(parse(R"({"prediction_smoothing": true})", w).filter.stgae.smooth);
+  CHECK(parse(R"({"prediction_smoothing": "on"})", w).filter.stgae.smooth);
+  CHECK_FALSE(parse(R"({"prediction_smoothing": "off"})", w).filter.stgae.smooth);
+  CHECK(w.empty());
+  CHECK_FALSE(parse(R"({"prediction_smoothing": "lots"})", w).filter.stgae.smooth);
+  REQUIRE(w.size() == 1);
+  CHECK(w[0].find("cfg.json: prediction_smoothing") != std::string::npos);
+  CHECK(w[0].find("lots") != std::string::npos);
+  (void)parse(R"({"prediction_smoothing": 2})", w);
+  REQUIRE(w.size() == 2);
+  CHECK(w[1].find("'prediction_smoothing' must be") != std::string::npos);
+  // The environment overrides the file; a bad value there keeps the file's.
+  const auto dir = hs::test::temp_dir("layer_prediction_smoothing_config");
+  const auto cfg = dir / "cfg.json";
+  std::ofstream(cfg) << R"({"method": "kalman", "prediction_smoothing": true})";
+  ::setenv("HANDSTEADY_CONFIG", cfg.c_str(), 1);
+  for (const char* v : {"HANDSTEADY_MODE", "HANDSTEADY_METHOD", "HANDSTEADY_MODEL"}) ::unsetenv(v);
+  ::setenv("HANDSTEADY_PREDICTION_SMOOTHING", "off", 1);
+  hs::layer::LoadedConfig read = hs::layer::read_layer_config();
+  CHECK_FALSE(read.config.filter.stgae.smooth);
+  CHECK(read.warnings.empty());
+  ::setenv("HANDSTEADY_PREDICTION_SMOOTHING", "maybe", 1);
+  read = hs::layer::read_layer_config();
+  CHECK(read.config.filter.stgae.smooth);
+  REQUIRE(read.warnings.size() == 1);
+  CHECK(read.warnings[0].find("HANDSTEADY_PREDICTION_SMOOTHING") != std::string::npos);
+  for (const char* v : {"HANDSTEADY_CONFIG", "HANDSTEADY_PREDICTION_SMOOTHING"}) ::unsetenv(v);
+  std::filesystem::remove_all(dir);
+}

@@ -145,8 +145,8 @@ TEST_CASE("prediction smoothing through the adapter: the shipped model's predict
   const auto noisy = hs::corrupt_series(truth, cfg, 5);
   constexpr int kAhead = 4;  // rows: the prediction at t_i + 4/90 s is scored against row i + 4
   const double horizon = kAhead / p.rate_hz;
-  auto smoothed = hs::make_stgae_filter(model, 0.0);
-  auto rough = hs::make_stgae_filter(model, 0.0, 0, true, false, false);
+  auto smoothed = hs::make_stgae_filter(model, 0.0, 0, true, false, true);
+  auto rough = hs::make_stgae_filter(model, 0.0);
   const auto a = hs::filter_series(*smoothed, noisy, horizon);
   const auto b = hs::filter_series(*rough, noisy, horizon);
   const size_t n = truth.size() - kAhead;
@@ -159,8 +159,8 @@ TEST_CASE("prediction smoothing through the adapter: the shipped model's predict
   CHECK(ja < 0.75 * jb);
   CHECK(ea < 1.1 * eb);
   // The denoised answers (H = 0) are not made worse.
-  auto s0 = hs::make_stgae_filter(model, 0.0);
-  auto r0 = hs::make_stgae_filter(model, 0.0, 0, true, false, false);
+  auto s0 = hs::make_stgae_filter(model, 0.0, 0, true, false, true);
+  auto r0 = hs::make_stgae_filter(model, 0.0);
   const double e0s = hs::mpjpe_mm(truth.pos, hs::filter_series(*s0, noisy, 0.0).pos);
   const double e0r = hs::mpjpe_mm(truth.pos, hs::filter_series(*r0, noisy, 0.0).pos);
   INFO("H = 0: smoothed " << e0s << ", unsmoothed " << e0r << " mm");

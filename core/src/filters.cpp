@@ -388,7 +388,7 @@ std::string filter_params_summary(const FilterConfig& c) {
                          m.padding == StgaePadding::Causal ? "causal" : "centred",
                          p.offline ? "offline" : "streaming", p.phases == 0 ? std::string("auto") : std::to_string(p.phases),
                          p.bounded ? "" : " unbounded", p.bounded && p.gain ? " gain" : "",
-                         p.bounded && !p.smooth && !p.offline ? " unsmoothed" : "") + fit;
+                         p.bounded && p.smooth && !p.offline ? " smoothed" : "") + fit;
     }
   }
   return s + fmt::format("max_gap_ms={}", c.max_gap_s * 1e3) + fit;

@@ -332,7 +332,7 @@ class StgaeFilter final : public PoseFilter {
   std::array<CorrectionBound, kStgaeMaxPhases> bounds_;  // one per stream: its frames are a period apart
   bool bounded_ = true;
   bool gained_ = false;
-  bool smoothed_ = true;
+  bool smoothed_ = false;
   PredictionSmoother smoother_;  // one for all streams (smoothed_): their frames in time order
   CorrectionGain gain_;          // how much of the answer's correction to keep (gained_)
   Pose ans_ = untracked_pose();  // the answer at the last row, before the gain

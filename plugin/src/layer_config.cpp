@@ -109,6 +109,11 @@ struct Applier {
     else if (v == "auto") c.filter.palm_fit.reset();
     else warnings.push_back(where + ": unknown palm fit setting '" + v + "' (auto, on, off)");
   }
+  void prediction_smoothing(const std::string& v, const std::string& where) {
+    if (v == "on" || v == "true" || v == "1") c.filter.stgae.smooth = true;
+    else if (v == "off" || v == "false" || v == "0") c.filter.stgae.smooth = false;
+    else warnings.push_back(where + ": unknown prediction smoothing setting '" + v + "' (on, off)");
+  }
   void log_level(const std::string& v, const std::string& where) {
     if (auto l = parse_level(v)) c.log_level = *l;
     else warnings.push_back(where + ": unknown log level '" + v + "' (off, error, warn, info, debug)");
@@ -165,6 +170,12 @@ void apply_json(std::string_view text, const std::string& where, Applier& a) {
     if (j["palm_fit"].is_boolean()) a.c.filter.palm_fit = j["palm_fit"].get<bool>();
     else if (j["palm_fit"].is_string()) a.palm_fit(j["palm_fit"].get<std::string>(), where + ": palm_fit");
     else a.warnings.push_back(where + ": 'palm_fit' must be true, false or \"auto\"");
+  }
+  if (j.contains("prediction_smoothing")) {
+    const auto& v = j["prediction_smoothing"];
+    if (v.is_boolean()) a.c.filter.stgae.smooth = v.get<bool>();
+    else if (v.is_string()) a.prediction_smoothing(v.get<std::string>(), where + ": prediction_smoothing");
+    else a.warnings.push_back(where + ": 'prediction_smoothing' must be true or false");
   }
   auto number = [&](const nlohmann::json& obj, const char* key, const std::string& at, auto&& apply) {
     if (!obj.contains(key)) return;
@@ -271,7 +282,8 @@ void resolve_engine(LayerConfig& c, std::vector<LogMessage>& messages) {
     c.model_path = file.string();
     messages.push_back({LogLevel::Info, "engine " + net_name + ": model " + file.string() +
                                             (requested ? " (method " + net_name + ")" : " (default: a model was found)") +
-                                            (palm ? ", palm fit on" : ", palm fit off")});
+                                            (palm ? ", palm fit on" : ", palm fit off") +
+                                            (c.filter.stgae.smooth ? ", predictions smoothed" : "")});
   } catch (const std::exception& e) {
     messages.push_back({LogLevel::Error, "engine " + fallback + ": the " + net_name + " model " + file.string() +
                                              " cannot be used: " + e.what()});
@@ -347,6 +359,7 @@ LoadedConfig read_layer_config() {
     else out.warnings.push_back("HANDSTEADY_STGAE_PHASES: not a number: '" + *v + "'");
   }
   if (auto v = env("HANDSTEADY_PALM_FIT")) a.palm_fit(*v, "HANDSTEADY_PALM_FIT");
+  if (auto v = env("HANDSTEADY_PREDICTION_SMOOTHING")) a.prediction_smoothing(*v, "HANDSTEADY_PREDICTION_SMOOTHING");
   if (auto v = env("HANDSTEADY_LOG")) a.log_level(*v, "HANDSTEADY_LOG");
   if (auto v = env("HANDSTEADY_RECORD")) c.record_dir = *v;
   if (auto v = env("HANDSTEADY_WORKER")) a.worker(*v, "HANDSTEADY_WORKER");

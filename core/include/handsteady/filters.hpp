@@ -97,7 +97,8 @@ struct StgaeParams {
   bool bounded = true; // false: the network's own answer, without the trust region
   bool gain = false;    // with bounded: keep only the share of the correction the input's next rows confirm
                         // (correction_gain.hpp; opt-in: it gives up the network's tremor removal)
-  bool smooth = true;   // with bounded: predicted displacements smoothed over time (prediction_smoothing.hpp)
+  bool smooth = false;  // with bounded: predicted displacements smoothed over time (prediction_smoothing.hpp;
+                        // opt-in: ~40 % less jitter in the predictions for a few % more error)
   bool offline = false;
 };
 

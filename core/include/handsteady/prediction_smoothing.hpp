@@ -12,10 +12,12 @@
 // (kPredictionMinCutoffHz + kPredictionBeta * |change| / dt). Every lag on a displacement
 // is a lag on the predicted velocity, which costs prediction error on fast motion, so
 // the constants are the smoothest whose 50 ms error on the benchmark's tuning split is
-// no worse than without (docs/STGAE.md "Prediction smoothing" has the sweep and the cost
-// on the test split). The denoised frame is not touched. One state for all of a filter's
-// streams, fed in time order: their successive frames are smoothed together rather than
-// alternated. Allocation only at construction, noexcept.
+// no worse than without. On the test split it still costs a few per cent (most at 30 Hz,
+// where one stream has no alternation to average): opt-in (StgaeParams::smooth; the
+// sweep and both costs in docs/STGAE.md "Prediction smoothing"). The denoised frame is
+// not touched. One state for all of a filter's streams, fed in time order: their
+// successive frames are smoothed together rather than alternated. Allocation only at
+// construction, noexcept.
 #include "handsteady/skeleton.hpp"
 
 #include <span>

@@ -30,6 +30,6 @@ namespace hs {
 inline constexpr int kStgaeMaxPhases = 4;
 std::unique_ptr<PoseFilter> make_stgae_filter(std::shared_ptr<const StgaeModel> model, double horizon_s,
                                               int phases = 0, bool bounded = true, bool gain = false,
-                                              bool smooth = true);
+                                              bool smooth = false);
 
 }  // namespace hs
