@@ -349,6 +349,20 @@ TEST_CASE("configuration: read_layer_config applies the file and the environment
   std::filesystem::remove_all(dir);
 }
 
+// The layer's configuration from a JSON file (HANDSTEADY_CONFIG) with one environment
+// variable set over it (the engine's other variables unset); both unset again after.
+static hs::layer::LoadedConfig read_file_and_env(const std::filesystem::path& dir, const char* json, const char* var,
+                                                 const char* value) {
+  const auto cfg = dir / "cfg.json";
+  std::ofstream(cfg) << json;
+  ::setenv("HANDSTEADY_CONFIG", cfg.c_str(), 1);
+  for (const char* v : {"HANDSTEADY_MODE", "HANDSTEADY_METHOD", "HANDSTEADY_MODEL"}) ::unsetenv(v);
+  ::setenv(var, value, 1);
+  hs::layer::LoadedConfig read = hs::layer::read_layer_config();
+  for (const char* v : {"HANDSTEADY_CONFIG", var}) ::unsetenv(v);
+  return read;
+}
+
 TEST_CASE("configuration: palm_fit switches the rigid-palm fit for any engine, auto leaves make_filter's default, a bad value warns") {
   auto parse = [](const char* text, std::vector<std::string>& warnings) {
     return hs::layer::parse_layer_config_json(text, "cfg.json", warnings);
@@ -374,20 +388,14 @@ TEST_CASE("configuration: palm_fit switches the rigid-palm fit for any engine, a
   CHECK_FALSE(hs::palm_fit_on(oneeuro));
   // The environment overrides the file.
   const auto dir = hs::test::temp_dir("layer_palm_fit_config");
-  const auto cfg = dir / "cfg.json";
-  std::ofstream(cfg) << R"({"method": "kalman", "palm_fit": true})";
-  ::setenv("HANDSTEADY_CONFIG", cfg.c_str(), 1);
-  for (const char* v : {"HANDSTEADY_MODE", "HANDSTEADY_METHOD", "HANDSTEADY_MODEL"}) ::unsetenv(v);
-  ::setenv("HANDSTEADY_PALM_FIT", "off", 1);
-  hs::layer::LoadedConfig read = hs::layer::read_layer_config();
+  const char* file = R"({"method": "kalman", "palm_fit": true})";
+  hs::layer::LoadedConfig read = read_file_and_env(dir, file, "HANDSTEADY_PALM_FIT", "off");
   CHECK(read.config.filter.palm_fit == false);
   CHECK(read.warnings.empty());
-  ::setenv("HANDSTEADY_PALM_FIT", "maybe", 1);
-  read = hs::layer::read_layer_config();
+  read = read_file_and_env(dir, file, "HANDSTEADY_PALM_FIT", "maybe");
   CHECK(read.config.filter.palm_fit == true);  // the file's, kept
   REQUIRE(read.warnings.size() == 1);
   CHECK(read.warnings[0].find("HANDSTEADY_PALM_FIT") != std::string::npos);
-  for (const char* v : {"HANDSTEADY_CONFIG", "HANDSTEADY_PALM_FIT"}) ::unsetenv(v);
   std::filesystem::remove_all(dir);
 }
 
@@ -410,19 +418,13 @@ TEST_CASE("configuration: prediction_smoothing switches the network's prediction
   CHECK(w[1].find("'prediction_smoothing' must be") != std::string::npos);
   // The environment overrides the file; a bad value there keeps the file's.
   const auto dir = hs::test::temp_dir("layer_prediction_smoothing_config");
-  const auto cfg = dir / "cfg.json";
-  std::ofstream(cfg) << R"({"method": "kalman", "prediction_smoothing": true})";
-  ::setenv("HANDSTEADY_CONFIG", cfg.c_str(), 1);
-  for (const char* v : {"HANDSTEADY_MODE", "HANDSTEADY_METHOD", "HANDSTEADY_MODEL"}) ::unsetenv(v);
-  ::setenv("HANDSTEADY_PREDICTION_SMOOTHING", "off", 1);
-  hs::layer::LoadedConfig read = hs::layer::read_layer_config();
+  const char* file = R"({"method": "kalman", "prediction_smoothing": true})";
+  hs::layer::LoadedConfig read = read_file_and_env(dir, file, "HANDSTEADY_PREDICTION_SMOOTHING", "off");
   CHECK_FALSE(read.config.filter.stgae.smooth);
   CHECK(read.warnings.empty());
-  ::setenv("HANDSTEADY_PREDICTION_SMOOTHING", "maybe", 1);
-  read = hs::layer::read_layer_config();
+  read = read_file_and_env(dir, file, "HANDSTEADY_PREDICTION_SMOOTHING", "maybe");
   CHECK(read.config.filter.stgae.smooth);
   REQUIRE(read.warnings.size() == 1);
   CHECK(read.warnings[0].find("HANDSTEADY_PREDICTION_SMOOTHING") != std::string::npos);
-  for (const char* v : {"HANDSTEADY_CONFIG", "HANDSTEADY_PREDICTION_SMOOTHING"}) ::unsetenv(v);
   std::filesystem::remove_all(dir);
 }
