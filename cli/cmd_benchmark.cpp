@@ -91,26 +91,17 @@ void run_benchmark(const BenchmarkOptions& o, const std::string& command) {
     c.method = network_method(*model);
     c.stgae.model = model;
     c.stgae.source = file.string();
-    methods.push_back({label, [c](const std::string&) { return make_filter(c); }, true});
-    if (o.palm_fit) {
-      FilterConfig n = c;
-      n.palm_fit = false;
-      methods.push_back({label + "-nopalmfit", [n](const std::string&) { return make_filter(n); }, true});
-    }
-    if (o.gain) {
-      FilterConfig g = c;
-      g.stgae.gain = true;
-      methods.push_back({label + "-gain", [g](const std::string&) { return make_filter(g); }, true});
-    }
-    if (o.smoothed) {
-      FilterConfig u = c;
-      u.stgae.smooth = true;
-      methods.push_back({label + "-smoothed", [u](const std::string&) { return make_filter(u); }, true});
-    }
-    if (o.unbounded) {
-      c.stgae.bounded = false;
-      methods.push_back({label + "-unbounded", [c](const std::string&) { return make_filter(c); }, true});
-    }
+    // The model's row, then each asked-for variant of it (LABEL-suffix): c changed by `vary`.
+    const auto add = [&](const std::string& suffix, auto vary) {
+      FilterConfig v = c;
+      vary(v);
+      methods.push_back({label + suffix, [v](const std::string&) { return make_filter(v); }, true});
+    };
+    add("", [](FilterConfig&) {});
+    if (o.palm_fit) add("-nopalmfit", [](FilterConfig& v) { v.palm_fit = false; });
+    if (o.gain) add("-gain", [](FilterConfig& v) { v.stgae.gain = true; });
+    if (o.smoothed) add("-smoothed", [](FilterConfig& v) { v.stgae.smooth = true; });
+    if (o.unbounded) add("-unbounded", [](FilterConfig& v) { v.stgae.bounded = false; });
     report.notes.push_back(fmt::format("model {} = {}", label, file.string()));
   }
   if (o.palm_fit) {  // the fit alone, in front of the plain baselines

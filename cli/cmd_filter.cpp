@@ -138,13 +138,10 @@ void run_filter(const FilterOptions& o) {
   if (o.unbounded && (!stgae || o.offline)) {
     throw InputError({"", 0, "--unbounded"}, "--unbounded is for --method stgae or dgn streaming");
   }
-  if (o.gain && (!stgae || o.offline || o.unbounded)) {
-    throw InputError({"", 0, "--gain"}, "--gain is for --method stgae or dgn streaming, with the trust region");
-  }
-  if (o.smooth_predictions && (!stgae || o.offline || o.unbounded)) {
-    throw InputError({"", 0, "--smooth-predictions"},
-                     "--smooth-predictions is for --method stgae or dgn streaming, with the trust region");
-  }
+  // Options of the trust region's stages: a network streaming, with the trust region.
+  for (const auto& [set, flag] : {std::pair{o.gain, "--gain"}, std::pair{o.smooth_predictions, "--smooth-predictions"}})
+    if (set && (!stgae || o.offline || o.unbounded))
+      throw InputError({"", 0, flag}, fmt::format("{} is for --method stgae or dgn streaming, with the trust region", flag));
   if (o.palm_fit && o.no_palm_fit) throw InputError({"", 0, "--palm-fit"}, "--palm-fit and --no-palm-fit contradict");
   if (o.palm_fit && o.offline) throw InputError({"", 0, "--palm-fit"}, "--palm-fit streams; --offline has none");
   if (!o.model_file.empty() && !stgae) {

@@ -42,6 +42,13 @@ std::optional<LogLevel> parse_level(std::string_view s) {
   return std::nullopt;
 }
 
+// A switch's words: on/true/1 and off/false/0 (nullopt: neither).
+std::optional<bool> parse_on_off(std::string_view s) {
+  if (s == "on" || s == "true" || s == "1") return true;
+  if (s == "off" || s == "false" || s == "0") return false;
+  return std::nullopt;
+}
+
 std::optional<double> parse_double(const std::string& s) {
   try {
     size_t used = 0;
@@ -104,14 +111,12 @@ struct Applier {
     else warnings.push_back(where + ": must be an integer in [0, " + std::to_string(kStgaeMaxPhases) + "]");
   }
   void palm_fit(const std::string& v, const std::string& where) {
-    if (v == "on" || v == "true" || v == "1") c.filter.palm_fit = true;
-    else if (v == "off" || v == "false" || v == "0") c.filter.palm_fit = false;
+    if (auto on = parse_on_off(v)) c.filter.palm_fit = *on;
     else if (v == "auto") c.filter.palm_fit.reset();
     else warnings.push_back(where + ": unknown palm fit setting '" + v + "' (auto, on, off)");
   }
   void prediction_smoothing(const std::string& v, const std::string& where) {
-    if (v == "on" || v == "true" || v == "1") c.filter.stgae.smooth = true;
-    else if (v == "off" || v == "false" || v == "0") c.filter.stgae.smooth = false;
+    if (auto on = parse_on_off(v)) c.filter.stgae.smooth = *on;
     else warnings.push_back(where + ": unknown prediction smoothing setting '" + v + "' (on, off)");
   }
   void log_level(const std::string& v, const std::string& where) {
