@@ -147,6 +147,15 @@ TEST_CASE("the grid on synthetic motion: noise is what it says, filters are scor
   sets[1].name = "synth-test";
   sets[1].wide = true;
   add_hand_series(sets[1].clean, Hand::Right, synth_series(10.0, 120.0, 12));
+  // A recording without truth: noisy motion at 30 Hz, scored against itself.
+  bench::Dataset rec;
+  rec.name = "synth-recorded";
+  rec.has_truth = false;
+  CorruptionConfig white;
+  white.kind = CorruptionKind::Tracker;
+  white.tracker.jitter_sd_m = 0.002;
+  add_hand_series(rec.clean, Hand::Right, corrupt_series(synth_series(10.0, 30.0, 13), white, 5));
+  sets.push_back(rec);
   bench::Options o;
   o.quick = true;
   bench::Report r;
@@ -230,6 +239,28 @@ TEST_CASE("the grid on synthetic motion: noise is what it says, filters are scor
   const auto j = nlohmann::json::parse(bench::report_json(r, o));
   CHECK(j["results"].size() == r.results.size());
   CHECK(bench::curve_csv(r).find("oneeuro-sweep") != std::string::npos);
+  // The recording: One Euro and Kalman swept on it, from light to heavy smoothing.
+  const auto* raw_rec = [&]() -> const bench::Result* {
+    for (const auto& x : r.results)
+      if (x.cell.block == "recorded" && x.method == "raw") return &x;
+    return nullptr;
+  }();
+  REQUIRE(raw_rec);
+  for (const std::string method : {"oneeuro", "kalman"}) {
+    double least_lag = 1e9, most_lag = -1e9, least_jitter = 1e9;
+    for (const auto& p : r.recorded_curves)
+      if (p.method == method) {
+        CHECK(p.cell == raw_rec->cell.key());
+        least_lag = std::min(least_lag, p.lag_ms);
+        most_lag = std::max(most_lag, p.lag_ms);
+        least_jitter = std::min(least_jitter, p.jitter_mm);
+      }
+    CHECK_MESSAGE(most_lag > least_lag + 2.0, method, " lag ", least_lag, "..", most_lag);
+    CHECK_MESSAGE(least_jitter < 0.8 * raw_rec->at[0].jitter_mm, method, " jitter ", least_jitter, " raw ", raw_rec->at[0].jitter_mm);
+  }
+  CHECK(md.find("| One Euro at this lag | Kalman at this lag |") != std::string::npos);
+  CHECK(md.find("Sweeps (jitter_lag_synth-recorded.png)") != std::string::npos);
+  CHECK(j["recorded_curves"].size() == r.recorded_curves.size());
   // Occluded joints: outliers jump 10-50 mm, so raw's error on them is large, on no other
   // joint of those rows; white noise of 1.5 mm displaces (almost) no joint by 10 mm.
   const auto* raw_out = find("outliers", "raw");
@@ -255,6 +286,59 @@ TEST_CASE("the grid on synthetic motion: noise is what it says, filters are scor
   CHECK(mdt.find("Scored on the tuning split") != std::string::npos);
   CHECK(mdt.find("noise cells of the tuning sets") != std::string::npos);
   CHECK(md.find("Scored on the tuning split") == std::string::npos);
+}
+
+TEST_CASE("jitter at equal lag: the lower envelope of a sweep, interpolated, held at its ends") {
+  const std::vector<std::pair<double, double>> pts = {{0.0, 5.0}, {8.0, 3.5}, {2.0, 4.8}, {20.0, 2.0}, {10.0, 4.0}, {30.0, 2.5}};
+  CHECK(bench::jitter_at_lag(pts, 4.0) == doctest::Approx(4.8 + (3.5 - 4.8) * 2.0 / 6.0));
+  CHECK(bench::jitter_at_lag(pts, 8.0) == doctest::Approx(3.5));
+  CHECK(bench::jitter_at_lag(pts, 14.0) == doctest::Approx(3.5 + (2.0 - 3.5) * 6.0 / 12.0));  // (10, 4) is above the envelope
+  CHECK(bench::jitter_at_lag(pts, 50.0) == doctest::Approx(2.0));  // (30, 2.5) reaches nothing new
+  CHECK(bench::jitter_at_lag(pts, -1.0) == doctest::Approx(5.0));
+  CHECK(std::isnan(bench::jitter_at_lag({}, 4.0)));
+  CHECK(bench::jitter_at_lag({{std::nan(""), 1.0}, {1.0, 3.0}}, 4.0) == doctest::Approx(3.0));
+}
+
+TEST_CASE("the recordings-without-truth criterion compares a model with One Euro and Kalman at its own lag") {
+  // A recording where the model has 4 ms of lag: One Euro's defaults reach less jitter but
+  // at 20 ms; its sweep reaches 4.37 mm at 4 ms, Kalman 4.5 mm.
+  bench::Report r;
+  r.methods = {"raw", "oneeuro", "kalman", "model"};
+  r.models = {"model"};
+  const bench::Cell cell{"recorded", "rec", "recorded", "-", "-", 0.0, 0.0};
+  const auto add = [&](const std::string& method, double lag_ms, double jitter_mm) {
+    bench::Result x;
+    x.cell = cell;
+    x.method = method;
+    for (auto& m : x.at) {
+      m.lag_ms = lag_ms;
+      m.jitter_mm = jitter_mm;
+      m.truth_jitter_mm = 5.0;
+    }
+    r.results.push_back(x);
+  };
+  add("raw", 0.0, 5.0);
+  add("oneeuro", 20.0, 2.0);
+  add("kalman", 4.0, 4.5);
+  for (const auto& [lag, jit] : {std::pair{2.0, 4.8}, std::pair{8.0, 3.5}})
+    r.recorded_curves.push_back({cell.key(), "oneeuro", "swept", jit, lag});
+  r.recorded_curves.push_back({cell.key(), "kalman", "swept", 4.9, 1.0});
+  const auto criterion = [&](double model_jitter) {
+    bench::Report rm = r;
+    bench::Result x = rm.results.back();
+    x.method = "model";
+    for (auto& m : x.at) m.jitter_mm = model_jitter;
+    for (auto& m : x.at) m.lag_ms = 4.0;
+    rm.results.push_back(x);
+    const std::string md = bench::report_markdown(rm, bench::Options{});
+    const auto at = md.find("| recordings without truth");
+    REQUIRE(at != std::string::npos);
+    return md.substr(at, md.find('\n', at) - at);
+  };
+  const std::string pass = criterion(4.2), fail = criterion(4.4);
+  CHECK_MESSAGE(pass.find("**pass** 2/2") != std::string::npos, pass);
+  CHECK_MESSAGE(fail.find("**fail** 1/2") != std::string::npos, fail);
+  CHECK_MESSAGE(fail.find("rec vs oneeuro at 4.0 ms") != std::string::npos, fail);
 }
 
 TEST_CASE("handsteady benchmark --quick on the shared recordings writes the report") {

@@ -2,7 +2,8 @@
 //  - oneeuro_curve.png: One Euro's jitter against lag over its tuning sweep on the curve
 //    cell (its lower envelope as a curve, every swept pair as a dot), every method as a point;
 //  - jitter_lag_<set>.png per set: jitter (÷ the truth's) against lag at H = 0, one dot
-//    per noise cell of the noise block, one colour per method.
+//    per noise cell of the noise block, one colour per method; on a recording without
+//    truth, One Euro's and Kalman's sweeps as curves (least jitter at a given lag).
 #include "handsteady/error.hpp"
 #include "handsteady_render/plot.hpp"
 
@@ -17,6 +18,7 @@
 #include <limits>
 #include <map>
 #include <string>
+#include <tuple>
 #include <vector>
 
 namespace {
@@ -41,6 +43,22 @@ XySeries series(std::string label, Color color) {
   s.label = std::move(label);
   s.color = color;
   return s;
+}
+
+// Lower envelope of (lag, jitter) points: the least jitter reachable at no more lag.
+XySeries envelope(std::vector<std::pair<double, double>> pts, std::string label, Color color) {
+  std::sort(pts.begin(), pts.end());
+  XySeries env = series(std::move(label), color);
+  env.lines = true;
+  env.marker_px = 0.0f;
+  double best = std::numeric_limits<double>::infinity();
+  for (const auto& [x, y] : pts)
+    if (std::isfinite(x) && std::isfinite(y) && y < best) {
+      best = y;
+      env.x.push_back(x);
+      env.y.push_back(y);
+    }
+  return env;
 }
 
 std::string file_safe(std::string s) {
@@ -78,19 +96,7 @@ int run(const fs::path& in, const fs::path& out_dir) {
       dots.y.push_back(num(c["jitter_mm"]));
       pts.emplace_back(dots.x.back(), dots.y.back());
     }
-    // Lower envelope: the least jitter reachable at no more lag.
-    std::sort(pts.begin(), pts.end());
-    XySeries env = series("One Euro, least jitter at a given lag", Color::rgb8(230, 159, 0));
-    env.lines = true;
-    env.marker_px = 0.0f;
-    double best = std::numeric_limits<double>::infinity();
-    for (const auto& [x, y] : pts)
-      if (std::isfinite(x) && std::isfinite(y) && y < best) {
-        best = y;
-        env.x.push_back(x);
-        env.y.push_back(y);
-      }
-    p.series = {dots, env};
+    p.series = {dots, envelope(pts, "One Euro, least jitter at a given lag", Color::rgb8(230, 159, 0))};
     for (size_t m = 0; m < methods.size(); ++m)
       for (const auto& r : j["results"])
         if (r["method"] == methods[m] && !j.value("curve_cell", std::string()).empty() &&
@@ -126,6 +132,21 @@ int run(const fs::path& in, const fs::path& out_dir) {
       }
       p.series.push_back(s);
     }
+    // A recording without truth: One Euro's and Kalman's sweeps, what the criterion compares at equal lag
+    // (benchmark.md's criterion takes the same points).
+    if (recorded && j.contains("recorded_curves"))
+      for (const auto& [method, label, color] :
+           {std::tuple{"oneeuro", "One Euro swept, least jitter at a given lag", Color::rgb8(230, 159, 0)},
+            std::tuple{"kalman", "Kalman swept, least jitter at a given lag", Color::rgb8(0, 158, 115)}}) {
+        std::vector<std::pair<double, double>> pts;
+        for (const auto& c : j["recorded_curves"])
+          if (c.value("method", std::string()) == method && c.value("cell", std::string()).find("| " + set + " |") != std::string::npos)
+            pts.emplace_back(num(c["lag_ms"]), num(c["jitter_mm"]));
+        for (const auto& r : j["results"])  // its row with default parameters, and raw (the sweep's limit)
+          if (r["set"] == set && r["block"] == "recorded" && (r["method"] == method || r["method"] == "raw"))
+            pts.emplace_back(num(r["h0ms"]["lag_ms"]), num(r["h0ms"]["jitter_mm"]));
+        if (!pts.empty()) p.series.push_back(envelope(std::move(pts), label, color));
+      }
     p.title = recorded ? set + ": jitter against lag behind the raw recording"
                        : set + ": jitter against lag, one dot per noise cell (H = 0)";
     p.x_label = recorded ? "lag behind raw (ms)" : "lag behind the truth (ms)";

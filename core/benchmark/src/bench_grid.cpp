@@ -11,6 +11,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <mutex>
 #include <random>
@@ -389,7 +390,47 @@ Method oneeuro_with(const OneEuroParams& p) {
           }};
 }
 
+// The Kalman filter's smoothing swept: the white-acceleration noise q (m²/s³) against its
+// default 5 mm measurement noise (only their ratio sets the lag).
+std::vector<KalmanParams> kalman_sweep(bool quick) {
+  const std::vector<double> qs = quick ? std::vector<double>{0.1, 10.0, 1000.0}
+                                       : std::vector<double>{0.01, 0.1, 1.0, 10.0, 100.0, 1000.0, 10000.0};
+  std::vector<KalmanParams> out;
+  for (const double q : qs) {
+    KalmanParams p;
+    p.accel_psd = q;
+    out.push_back(p);
+  }
+  return out;
+}
+
+Method kalman_with(const KalmanParams& p) {
+  return {"kalman", [p](const std::string&) {
+            FilterConfig c;
+            c.method = FilterMethod::Kalman;
+            c.kalman = p;
+            return make_filter(c);
+          }};
+}
+
 }  // namespace
+
+double jitter_at_lag(std::vector<std::pair<double, double>> lag_jitter, double lag_ms) {
+  std::erase_if(lag_jitter, [](const auto& p) { return !std::isfinite(p.first) || !std::isfinite(p.second); });
+  if (lag_jitter.empty() || !std::isfinite(lag_ms)) return std::numeric_limits<double>::quiet_NaN();
+  std::sort(lag_jitter.begin(), lag_jitter.end());
+  std::vector<std::pair<double, double>> env;  // lag increasing, jitter decreasing
+  for (const auto& p : lag_jitter)
+    if (env.empty() || p.second < env.back().second) env.push_back(p);
+  if (lag_ms <= env.front().first) return env.front().second;
+  for (size_t i = 1; i < env.size(); ++i)
+    if (lag_ms <= env[i].first) {
+      const auto& [x0, y0] = env[i - 1];
+      const auto& [x1, y1] = env[i];
+      return x1 > x0 ? y0 + (y1 - y0) * (lag_ms - x0) / (x1 - x0) : y1;
+    }
+  return env.back().second;
+}
 
 void tune_oneeuro(const std::vector<Dataset>& datasets, const Options& options, Report& report) {
   const auto noise = noise_grid(options.quick);
@@ -535,6 +576,22 @@ void run_grid(const std::vector<Dataset>& datasets, const std::vector<Method>& m
       report.curve = std::move(curve);
       break;
     }
+
+  // One Euro and Kalman swept on each recording without truth: what each reaches at a lag.
+  for (const Prepared& p : inputs) {
+    if (p.cell.block != "recorded") continue;
+    std::vector<std::pair<Method, std::string>> sweep;
+    for (const OneEuroParams& e : sweep_points(options.quick))
+      sweep.emplace_back(oneeuro_with(e), fmt::format("min cutoff {:g} Hz, beta {:g} s/m", e.min_cutoff_hz, e.beta));
+    for (const KalmanParams& k : kalman_sweep(options.quick))
+      sweep.emplace_back(kalman_with(k), fmt::format("q {:g} m²/s³, measurement {:g} mm", k.accel_psd, k.meas_sd_m * 1e3));
+    std::vector<LagPoint> pts(sweep.size());
+    parallel_for(sweep.size(), options.threads, [&](size_t i) {
+      const Metrics m = score(p, sweep[i].first).at[0];
+      pts[i] = LagPoint{p.cell.key(), sweep[i].first.name, sweep[i].second, m.jitter_mm, m.lag_ms};
+    });
+    for (auto& x : pts) report.recorded_curves.push_back(std::move(x));
+  }
 
   // Still hands: start, resume, drift.
   for (const Dataset& d : datasets) {

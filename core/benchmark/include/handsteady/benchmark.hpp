@@ -114,6 +114,22 @@ struct StillResult {
   double noisy_offset_mm = 0;  // with 0.5 mm jitter: the mean answer (1 s to 2 s) from the pose
 };
 
+// A classical method swept over its smoothing on a recording without truth: the jitter it
+// reaches at each lag. The criterion compares a model with it at the model's own lag.
+struct LagPoint {
+  std::string cell;    // Cell::key() of the recording
+  std::string method;  // "oneeuro" or "kalman"
+  std::string params;  // what was set, e.g. "min cutoff 1 Hz, beta 5 s/m"
+  double jitter_mm = 0, lag_ms = 0;
+};
+
+// The least jitter a swept method reaches at lag_ms: the lower envelope of its (lag,
+// jitter) points (each point's jitter below that of every point with less lag), linearly
+// interpolated between the envelope's neighbours of lag_ms and held at its ends (below the
+// least lag swept, the envelope's first point, which needed more lag: conservative for
+// whoever is compared with it). NaN without finite points.
+double jitter_at_lag(std::vector<std::pair<double, double>> lag_jitter, double lag_ms);
+
 struct SetInfo {
   std::string name, split, source;
   size_t rows = 0;
@@ -130,6 +146,7 @@ struct Report {
   std::string curve_label;             // "<set>, <noise>"
   std::vector<std::pair<std::string, OneEuroParams>> tuned;  // per noise cell key
   std::vector<StillResult> still;
+  std::vector<LagPoint> recorded_curves;  // One Euro's and Kalman's sweeps on each recording without truth
   std::vector<std::string> notes;
   std::vector<std::string> methods;  // in the order given
   std::vector<std::string> models;   // those that are learnt models (the criteria are checked for them)
