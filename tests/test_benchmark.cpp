@@ -354,10 +354,12 @@ TEST_CASE("handsteady benchmark --quick on the shared recordings writes the repo
   for (const char* set : {"fpha-s5", "manipnet-mug3", "leap-gestures-s04", "leap-handwriting"})
     CHECK_MESSAGE(md.find(std::string("## ") + set) != std::string::npos, set);
   CHECK(md.find("**hololens2**") != std::string::npos);
+  CHECK(md.find("| One Euro at this lag | Kalman at this lag |") != std::string::npos);
   CHECK(md.find("## Criteria") != std::string::npos);
   const auto j = nlohmann::json::parse(slurp(dir / "benchmark.json"));
   CHECK(j["results"].size() > 100);
   CHECK(!j["oneeuro_curve"].empty());
+  CHECK(!j["recorded_curves"].empty());
   CHECK(test::run_cli("benchmark --quick --data /nonexistent --out \"" + dir.string() + "\" 2> /dev/null") != 0);
   std::filesystem::remove_all(dir);
 }
