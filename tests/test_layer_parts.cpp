@@ -309,7 +309,13 @@ TEST_CASE("configuration: HANDSTEADY_METHOD=dgn loads a DGN model, and a model o
   for (const char* v : {"HANDSTEADY_CONFIG", "HANDSTEADY_MODE", "HANDSTEADY_STGAE_PHASES"}) ::unsetenv(v);
   ::setenv("HANDSTEADY_METHOD", "dgn", 1);
   ::setenv("HANDSTEADY_MODEL", dgn.c_str(), 1);
+  ::setenv("HANDSTEADY_CORRECTION_GAIN", "on", 1);
   hs::layer::LoadedConfig loaded = hs::layer::load_layer_config();
+  ::unsetenv("HANDSTEADY_CORRECTION_GAIN");
+  CHECK(loaded.config.filter.stgae.gain);
+  REQUIRE_FALSE(loaded.engine_messages.empty());
+  CHECK(loaded.engine_messages.back().text.find(", correction gain on") != std::string::npos);
+  CHECK(loaded.engine_messages.back().text.find("predictions smoothed") == std::string::npos);
   CHECK(loaded.config.filter.method == hs::FilterMethod::Dgn);
   REQUIRE(loaded.config.filter.stgae.model != nullptr);
   CHECK(loaded.config.filter.stgae.model->config.family == hs::StgaeFamily::Dgn);
@@ -399,32 +405,46 @@ TEST_CASE("configuration: palm_fit switches the rigid-palm fit for any engine, a
   std::filesystem::remove_all(dir);
 }
 
-TEST_CASE("configuration: prediction_smoothing switches the network's prediction smoothing, off by default, a bad value warns") {
-  auto parse = [](const char* text, std::vector<std::string>& warnings) {
+TEST_CASE("configuration: prediction_smoothing and correction_gain switch the network's options, off by default, a bad value warns") {
+  auto parse = [](const std::string& text, std::vector<std::string>& warnings) {
     return hs::layer::parse_layer_config_json(text, "cfg.json", warnings);
   };
-  std::vector<std::string> w;
-  CHECK_FALSE(parse("{}", w).filter.stgae.smooth);
-  CHECK(parse(R"({"prediction_smoothing": true})", w).filter.stgae.smooth);
-  CHECK(parse(R"({"prediction_smoothing": "on"})", w).filter.stgae.smooth);
-  CHECK_FALSE(parse(R"({"prediction_smoothing": "off"})", w).filter.stgae.smooth);
-  CHECK(w.empty());
-  CHECK_FALSE(parse(R"({"prediction_smoothing": "lots"})", w).filter.stgae.smooth);
-  REQUIRE(w.size() == 1);
-  CHECK(w[0].find("cfg.json: prediction_smoothing") != std::string::npos);
-  CHECK(w[0].find("lots") != std::string::npos);
-  (void)parse(R"({"prediction_smoothing": 2})", w);
-  REQUIRE(w.size() == 2);
-  CHECK(w[1].find("'prediction_smoothing' must be") != std::string::npos);
-  // The environment overrides the file; a bad value there keeps the file's.
-  const auto dir = hs::test::temp_dir("layer_prediction_smoothing_config");
-  const char* file = R"({"method": "kalman", "prediction_smoothing": true})";
-  hs::layer::LoadedConfig read = read_file_and_env(dir, file, "HANDSTEADY_PREDICTION_SMOOTHING", "off");
-  CHECK_FALSE(read.config.filter.stgae.smooth);
-  CHECK(read.warnings.empty());
-  read = read_file_and_env(dir, file, "HANDSTEADY_PREDICTION_SMOOTHING", "maybe");
-  CHECK(read.config.filter.stgae.smooth);
-  REQUIRE(read.warnings.size() == 1);
-  CHECK(read.warnings[0].find("HANDSTEADY_PREDICTION_SMOOTHING") != std::string::npos);
-  std::filesystem::remove_all(dir);
+  struct Case {
+    std::string key, env;
+    bool hs::StgaeParams::*field;
+  };
+  for (const Case& k : {Case{"prediction_smoothing", "HANDSTEADY_PREDICTION_SMOOTHING", &hs::StgaeParams::smooth},
+                        Case{"correction_gain", "HANDSTEADY_CORRECTION_GAIN", &hs::StgaeParams::gain}}) {
+    CAPTURE(k.key);
+    const auto on = [&](const std::string& value, std::vector<std::string>& w) {
+      return parse("{\"" + k.key + "\": " + value + "}", w).filter.stgae.*k.field;
+    };
+    std::vector<std::string> w;
+    CHECK_FALSE(parse("{}", w).filter.stgae.*k.field);
+    CHECK(on("true", w));
+    CHECK(on("\"on\"", w));
+    CHECK_FALSE(on("\"off\"", w));
+    CHECK(w.empty());
+    CHECK_FALSE(on("\"lots\"", w));
+    REQUIRE(w.size() == 1);
+    CHECK(w[0].find("cfg.json: " + k.key) != std::string::npos);
+    CHECK(w[0].find("lots") != std::string::npos);
+    (void)on("2", w);
+    REQUIRE(w.size() == 2);
+    CHECK(w[1].find("'" + k.key + "' must be") != std::string::npos);
+    // Each switch sets its own option only.
+    const auto both = parse("{\"" + k.key + "\": true}", w);
+    CHECK(both.filter.stgae.smooth + both.filter.stgae.gain == 1);
+    // The environment overrides the file; a bad value there keeps the file's.
+    const auto dir = hs::test::temp_dir("layer_switch_config");
+    const std::string file = R"({"method": "kalman", ")" + k.key + R"(": true})";
+    hs::layer::LoadedConfig read = read_file_and_env(dir, file.c_str(), k.env.c_str(), "off");
+    CHECK_FALSE(read.config.filter.stgae.*k.field);
+    CHECK(read.warnings.empty());
+    read = read_file_and_env(dir, file.c_str(), k.env.c_str(), "maybe");
+    CHECK(read.config.filter.stgae.*k.field);
+    REQUIRE(read.warnings.size() == 1);
+    CHECK(read.warnings[0].find(k.env) != std::string::npos);
+    std::filesystem::remove_all(dir);
+  }
 }

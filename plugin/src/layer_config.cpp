@@ -9,6 +9,7 @@
 #include <dlfcn.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -115,9 +116,17 @@ struct Applier {
     else if (v == "auto") c.filter.palm_fit.reset();
     else warnings.push_back(where + ": unknown palm fit setting '" + v + "' (auto, on, off)");
   }
-  void prediction_smoothing(const std::string& v, const std::string& where) {
-    if (auto on = parse_on_off(v)) c.filter.stgae.smooth = *on;
-    else warnings.push_back(where + ": unknown prediction smoothing setting '" + v + "' (on, off)");
+  // The network engine's on/off switches: prediction_smoothing, correction_gain.
+  struct Switch {
+    const char *key, *env, *what;
+    bool StgaeParams::*field;
+  };
+  static constexpr std::array<Switch, 2> kSwitches = {
+      Switch{"prediction_smoothing", "HANDSTEADY_PREDICTION_SMOOTHING", "prediction smoothing", &StgaeParams::smooth},
+      Switch{"correction_gain", "HANDSTEADY_CORRECTION_GAIN", "correction gain", &StgaeParams::gain}};
+  void switch_to(const Switch& s, const std::string& v, const std::string& where) {
+    if (auto on = parse_on_off(v)) c.filter.stgae.*s.field = *on;
+    else warnings.push_back(where + ": unknown " + s.what + " setting '" + v + "' (on, off)");
   }
   void log_level(const std::string& v, const std::string& where) {
     if (auto l = parse_level(v)) c.log_level = *l;
@@ -176,11 +185,12 @@ void apply_json(std::string_view text, const std::string& where, Applier& a) {
     else if (j["palm_fit"].is_string()) a.palm_fit(j["palm_fit"].get<std::string>(), where + ": palm_fit");
     else a.warnings.push_back(where + ": 'palm_fit' must be true, false or \"auto\"");
   }
-  if (j.contains("prediction_smoothing")) {
-    const auto& v = j["prediction_smoothing"];
-    if (v.is_boolean()) a.c.filter.stgae.smooth = v.get<bool>();
-    else if (v.is_string()) a.prediction_smoothing(v.get<std::string>(), where + ": prediction_smoothing");
-    else a.warnings.push_back(where + ": 'prediction_smoothing' must be true or false");
+  for (const auto& sw : Applier::kSwitches) {
+    if (!j.contains(sw.key)) continue;
+    const auto& v = j[sw.key];
+    if (v.is_boolean()) a.c.filter.stgae.*sw.field = v.get<bool>();
+    else if (v.is_string()) a.switch_to(sw, v.get<std::string>(), where + ": " + sw.key);
+    else a.warnings.push_back(where + ": '" + sw.key + "' must be true or false");
   }
   auto number = [&](const nlohmann::json& obj, const char* key, const std::string& at, auto&& apply) {
     if (!obj.contains(key)) return;
@@ -288,7 +298,8 @@ void resolve_engine(LayerConfig& c, std::vector<LogMessage>& messages) {
     messages.push_back({LogLevel::Info, "engine " + net_name + ": model " + file.string() +
                                             (requested ? " (method " + net_name + ")" : " (default: a model was found)") +
                                             (palm ? ", palm fit on" : ", palm fit off") +
-                                            (c.filter.stgae.smooth ? ", predictions smoothed" : "")});
+                                            (c.filter.stgae.smooth ? ", predictions smoothed" : "") +
+                                            (c.filter.stgae.gain ? ", correction gain on" : "")});
   } catch (const std::exception& e) {
     messages.push_back({LogLevel::Error, "engine " + fallback + ": the " + net_name + " model " + file.string() +
                                              " cannot be used: " + e.what()});
@@ -364,7 +375,8 @@ LoadedConfig read_layer_config() {
     else out.warnings.push_back("HANDSTEADY_STGAE_PHASES: not a number: '" + *v + "'");
   }
   if (auto v = env("HANDSTEADY_PALM_FIT")) a.palm_fit(*v, "HANDSTEADY_PALM_FIT");
-  if (auto v = env("HANDSTEADY_PREDICTION_SMOOTHING")) a.prediction_smoothing(*v, "HANDSTEADY_PREDICTION_SMOOTHING");
+  for (const auto& sw : Applier::kSwitches)
+    if (auto v = env(sw.env)) a.switch_to(sw, *v, sw.env);
   if (auto v = env("HANDSTEADY_LOG")) a.log_level(*v, "HANDSTEADY_LOG");
   if (auto v = env("HANDSTEADY_RECORD")) c.record_dir = *v;
   if (auto v = env("HANDSTEADY_WORKER")) a.worker(*v, "HANDSTEADY_WORKER");
