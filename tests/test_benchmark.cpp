@@ -261,6 +261,18 @@ TEST_CASE("the grid on synthetic motion: noise is what it says, filters are scor
   CHECK(md.find("| One Euro at this lag | Kalman at this lag |") != std::string::npos);
   CHECK(md.find("Sweeps (jitter_lag_synth-recorded.png)") != std::string::npos);
   CHECK(j["recorded_curves"].size() == r.recorded_curves.size());
+  // Each curve holds the method's default row and raw's, as scored in the grid.
+  for (const std::string method : {"oneeuro", "kalman"})
+    for (const std::string& row : {method, std::string("raw")}) {
+      const bench::Result* x = nullptr;
+      for (const auto& y : r.results)
+        if (y.cell.block == "recorded" && y.method == row) x = &y;
+      REQUIRE(x);
+      bool found = false;
+      for (const auto& p : r.recorded_curves)
+        found = found || (p.method == method && p.lag_ms == x->at[0].lag_ms && p.jitter_mm == x->at[0].jitter_mm);
+      CHECK_MESSAGE(found, method, " curve lacks the row ", row);
+    }
   // Occluded joints: outliers jump 10-50 mm, so raw's error on them is large, on no other
   // joint of those rows; white noise of 1.5 mm displaces (almost) no joint by 10 mm.
   const auto* raw_out = find("outliers", "raw");
@@ -320,9 +332,11 @@ TEST_CASE("the recordings-without-truth criterion compares a model with One Euro
   add("raw", 0.0, 5.0);
   add("oneeuro", 20.0, 2.0);
   add("kalman", 4.0, 4.5);
-  for (const auto& [lag, jit] : {std::pair{2.0, 4.8}, std::pair{8.0, 3.5}})
+  // Each curve: its sweep, its default row and raw's (as run_grid records them).
+  for (const auto& [lag, jit] : {std::pair{2.0, 4.8}, std::pair{8.0, 3.5}, std::pair{20.0, 2.0}, std::pair{0.0, 5.0}})
     r.recorded_curves.push_back({cell.key(), "oneeuro", "swept", jit, lag});
-  r.recorded_curves.push_back({cell.key(), "kalman", "swept", 4.9, 1.0});
+  for (const auto& [lag, jit] : {std::pair{1.0, 4.9}, std::pair{4.0, 4.5}, std::pair{0.0, 5.0}})
+    r.recorded_curves.push_back({cell.key(), "kalman", "swept", jit, lag});
   const auto criterion = [&](double model_jitter) {
     bench::Report rm = r;
     bench::Result x = rm.results.back();

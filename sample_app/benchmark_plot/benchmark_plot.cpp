@@ -132,8 +132,8 @@ int run(const fs::path& in, const fs::path& out_dir) {
       }
       p.series.push_back(s);
     }
-    // A recording without truth: One Euro's and Kalman's sweeps, what the criterion compares at equal lag
-    // (benchmark.md's criterion takes the same points).
+    // A recording without truth: One Euro's and Kalman's curves (sweep, defaults, raw), what
+    // the criterion compares at equal lag.
     if (recorded && j.contains("recorded_curves"))
       for (const auto& [method, label, color] :
            {std::tuple{"oneeuro", "One Euro swept, least jitter at a given lag", Color::rgb8(230, 159, 0)},
@@ -142,9 +142,6 @@ int run(const fs::path& in, const fs::path& out_dir) {
         for (const auto& c : j["recorded_curves"])
           if (c.value("method", std::string()) == method && c.value("cell", std::string()).find("| " + set + " |") != std::string::npos)
             pts.emplace_back(num(c["lag_ms"]), num(c["jitter_mm"]));
-        for (const auto& r : j["results"])  // its row with default parameters, and raw (the sweep's limit)
-          if (r["set"] == set && r["block"] == "recorded" && (r["method"] == method || r["method"] == "raw"))
-            pts.emplace_back(num(r["h0ms"]["lag_ms"]), num(r["h0ms"]["jitter_mm"]));
         if (!pts.empty()) p.series.push_back(envelope(std::move(pts), label, color));
       }
     p.title = recorded ? set + ": jitter against lag behind the raw recording"

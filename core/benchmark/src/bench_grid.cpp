@@ -590,6 +590,13 @@ void run_grid(const std::vector<Dataset>& datasets, const std::vector<Method>& m
       const Metrics m = score(p, sweep[i].first).at[0];
       pts[i] = LagPoint{p.cell.key(), sweep[i].first.name, sweep[i].second, m.jitter_mm, m.lag_ms};
     });
+    // Each curve's other points, already scored: the method's own row (its defaults) and
+    // raw (no smoothing, the sweeps' limit).
+    for (const std::string method : {"oneeuro", "kalman"})
+      for (const Result& x : report.results)
+        if (x.cell.key() == p.cell.key() && (x.method == method || x.method == "raw"))
+          pts.push_back(LagPoint{p.cell.key(), method, x.method == "raw" ? "raw (no smoothing)" : "defaults",
+                                 x.at[0].jitter_mm, x.at[0].lag_ms});
     for (auto& x : pts) report.recorded_curves.push_back(std::move(x));
   }
 

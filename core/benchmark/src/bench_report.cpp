@@ -77,15 +77,12 @@ bool low_noise(const Cell& c) {
   return (c.family == "white" || c.family == "correlated" || c.family.rfind("tremor-", 0) == 0) && c.level_mm < 1.5;
 }
 
-// The least jitter a classical method reaches on a recording at lag_ms: its sweep
-// (Report::recorded_curves), its row with default parameters and raw (no smoothing, the
-// sweep's limit) as points.
-double baseline_jitter_at(const Report& r, const Index& ix, const Cell& c, const std::string& method, double lag_ms) {
+// The least jitter a classical method reaches on a recording at lag_ms, on its curve
+// (Report::recorded_curves).
+double baseline_jitter_at(const Report& r, const Cell& c, const std::string& method, double lag_ms) {
   std::vector<std::pair<double, double>> pts;
   for (const LagPoint& p : r.recorded_curves)
     if (p.cell == c.key() && p.method == method) pts.emplace_back(p.lag_ms, p.jitter_mm);
-  for (const std::string& m : {method, std::string("raw")})
-    if (const Metrics* x = at(ix, c, m, 0)) pts.emplace_back(x->lag_ms, x->jitter_mm);
   return jitter_at_lag(std::move(pts), lag_ms);
 }
 
@@ -137,7 +134,7 @@ std::string criteria(const Report& r, const Index& ix) {
       const Metrics* m = at(ix, c, model, 0);
       for (const std::string other : {"oneeuro", "kalman"}) {
         if (!m) continue;
-        const double o = baseline_jitter_at(r, ix, c, other, m->lag_ms);
+        const double o = baseline_jitter_at(r, c, other, m->lag_ms);
         if (std::isfinite(o))
           rec.add(m->jitter_mm < o, m->jitter_mm / o, fmt::format("{} vs {} at {:.1f} ms", c.dataset, other, m->lag_ms));
       }
@@ -344,8 +341,8 @@ std::string report_markdown(const Report& r, const Options& o) {
         const Metrics* d = at(ix, c, m, 2);
         if (!a || !b || !d) continue;
         s += fmt::format("| {} | {} | {} | {} | {} | {} | {} ({}) | {} ({}) |\n", m, num(a->jitter_mm, 3),
-                         num(a->truth_jitter_mm, 3), num(a->lag_ms, 1), num(baseline_jitter_at(r, ix, c, "oneeuro", a->lag_ms), 3),
-                         num(baseline_jitter_at(r, ix, c, "kalman", a->lag_ms), 3), num(b->mpjpe_mm, 2), num(b->jitter_mm, 3),
+                         num(a->truth_jitter_mm, 3), num(a->lag_ms, 1), num(baseline_jitter_at(r, c, "oneeuro", a->lag_ms), 3),
+                         num(baseline_jitter_at(r, c, "kalman", a->lag_ms), 3), num(b->mpjpe_mm, 2), num(b->jitter_mm, 3),
                          num(d->mpjpe_mm, 2), num(d->jitter_mm, 3));
       }
       s += "\n";

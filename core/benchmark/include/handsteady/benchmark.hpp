@@ -115,11 +115,12 @@ struct StillResult {
 };
 
 // A classical method swept over its smoothing on a recording without truth: the jitter it
-// reaches at each lag. The criterion compares a model with it at the model's own lag.
+// reaches at each lag. The criterion compares a model with it at the model's own lag. Each
+// method's curve also holds its default row and raw's (no smoothing, the sweep's limit).
 struct LagPoint {
   std::string cell;    // Cell::key() of the recording
   std::string method;  // "oneeuro" or "kalman"
-  std::string params;  // what was set, e.g. "min cutoff 1 Hz, beta 5 s/m"
+  std::string params;  // what was set, e.g. "min cutoff 1 Hz, beta 5 s/m", "defaults", "raw (no smoothing)"
   double jitter_mm = 0, lag_ms = 0;
 };
 
@@ -146,7 +147,7 @@ struct Report {
   std::string curve_label;             // "<set>, <noise>"
   std::vector<std::pair<std::string, OneEuroParams>> tuned;  // per noise cell key
   std::vector<StillResult> still;
-  std::vector<LagPoint> recorded_curves;  // One Euro's and Kalman's sweeps on each recording without truth
+  std::vector<LagPoint> recorded_curves;  // One Euro's and Kalman's curves on each recording without truth
   std::vector<std::string> notes;
   std::vector<std::string> methods;  // in the order given
   std::vector<std::string> models;   // those that are learnt models (the criteria are checked for them)
