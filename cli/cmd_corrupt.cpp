@@ -17,7 +17,8 @@
 namespace hs::cli {
 namespace {
 
-const std::vector<std::string> kPresetNames = {"paper", "tracker", "tremor", "tremor-physiological"};
+const std::vector<std::string> kPresetNames = {"paper", "tracker", "tremor", "tremor-physiological",
+                                                "hand-jitter"};
 
 // Overrides in command-line units (mm, ms); unset = the preset's value.
 struct CorruptOptions {
@@ -26,7 +27,7 @@ struct CorruptOptions {
   std::optional<double> sigma_s, sigma_o, beta_mm, reference_hand_mm;
   bool no_optimize = false;
   std::optional<double> jitter_mm, jitter_ar1, joint_drop, hand_drop_rate, hand_drop_mean_ms, jump_prob, jump_mm,
-      quantize_mm;
+      quantize_mm, hand_jitter_mm;
   std::optional<double> tremor_min_hz, tremor_max_hz, tremor_hand_mm, tremor_finger_mm;
 };
 
@@ -54,6 +55,7 @@ CorruptionConfig build_config(const CorruptOptions& o) {
   apply(o.jump_prob, c.tracker.jump_prob, 1.0, tracker);
   apply(o.jump_mm, c.tracker.jump_sd_m, 1e-3, tracker);
   apply(o.quantize_mm, c.tracker.quantize_m, 1e-3, tracker);
+  apply(o.hand_jitter_mm, c.tracker.hand_jitter_sd_m, 1e-3, tracker);
   apply(o.tremor_min_hz, c.tremor.freq_min_hz, 1.0, tremor);
   apply(o.tremor_max_hz, c.tremor.freq_max_hz, 1.0, tremor);
   apply(o.tremor_hand_mm, c.tremor.hand_amplitude_m, 1e-3, tremor);
@@ -83,9 +85,9 @@ std::string describe(const CorruptionConfig& c) {
       const TrackerCorruption& t = c.tracker;
       return fmt::format(
           "jitter_mm={} jitter_ar1={} joint_drop={} hand_drop_rate_hz={} hand_drop_mean_ms={} jump_prob={} "
-          "jump_mm={} quantize_mm={}",
+          "jump_mm={} quantize_mm={} hand_jitter_mm={}",
           t.jitter_sd_m * 1e3, t.jitter_ar1, t.joint_drop_prob, t.hand_drop_rate_hz, t.hand_drop_mean_s * 1e3,
-          t.jump_prob, t.jump_sd_m * 1e3, t.quantize_m * 1e3);
+          t.jump_prob, t.jump_sd_m * 1e3, t.quantize_m * 1e3, t.hand_jitter_sd_m * 1e3);
     }
     case CorruptionKind::Tremor:
       return fmt::format("band_hz={}-{} hand_mm={} finger_mm={}", c.tremor.freq_min_hz, c.tremor.freq_max_hz,
@@ -117,7 +119,7 @@ void setup_corrupt(CLI::App& app) {
   p->add_option("--beta-mm", o->beta_mm, "Shift amplitude beta for the reference hand (mm)");
   p->add_option("--reference-hand-mm", o->reference_hand_mm, "Reference hand size for beta (mm); 0 = no scaling");
   p->add_flag("--no-optimize", o->no_optimize, "Skip the Optimize bone-length step");
-  auto* t = sub->add_option_group("tracker", "Overrides for --preset tracker");
+  auto* t = sub->add_option_group("tracker", "Overrides for --preset tracker / hand-jitter");
   t->add_option("--jitter-mm", o->jitter_mm, "Jitter SD per coordinate (mm)");
   t->add_option("--jitter-ar1", o->jitter_ar1, "Row-to-row jitter correlation in [0, 1)");
   t->add_option("--joint-drop", o->joint_drop, "Probability a joint is dropped in a row");
@@ -126,6 +128,7 @@ void setup_corrupt(CLI::App& app) {
   t->add_option("--jump-prob", o->jump_prob, "Probability of a one-row jump per joint and row");
   t->add_option("--jump-mm", o->jump_mm, "Jump SD per coordinate (mm)");
   t->add_option("--quantize-mm", o->quantize_mm, "Output rounding step (mm); 0 = none");
+  t->add_option("--hand-jitter-mm", o->hand_jitter_mm, "Whole-hand jitter SD per coordinate (mm), one displacement of all joints per row");
   auto* r = sub->add_option_group("tremor", "Overrides for --preset tremor / tremor-physiological");
   r->add_option("--tremor-min-hz", o->tremor_min_hz, "Lowest tremor frequency (Hz)");
   r->add_option("--tremor-max-hz", o->tremor_max_hz, "Highest tremor frequency (Hz)");

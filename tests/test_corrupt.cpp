@@ -44,7 +44,7 @@ bool same_series(const hs::HandSeries& a, const hs::HandSeries& b) {
   return true;
 }
 
-const char* const kPresets[] = {"paper", "tracker", "tremor", "tremor-physiological"};
+const char* const kPresets[] = {"paper", "tracker", "tremor", "tremor-physiological", "hand-jitter"};
 
 hs::CorruptionConfig tracker_only(hs::TrackerCorruption t) {
   hs::CorruptionConfig c;
@@ -140,6 +140,38 @@ TEST_CASE("tracker jitter has the configured SD and row-to-row correlation") {
     CHECK(sd == doctest::Approx(0.001).epsilon(0.02));
     CHECK(std::abs(lag1 / ss - ar1) < 0.02);
   }
+}
+
+TEST_CASE("whole-hand jitter moves every joint of a row by one displacement of the configured SD") {
+  const Pose base = synthetic_hand();
+  const hs::HandSeries clean = static_series(4000, 30.0, base);
+  for (double ar1 : {0.0, 0.6}) {
+    CAPTURE(ar1);
+    const auto out = hs::corrupt_series(clean, tracker_only({.jitter_ar1 = ar1, .hand_jitter_sd_m = 0.001}), 5);
+    double ss = 0, lag1 = 0, spread = 0;
+    for (size_t i = 0; i < out.size(); ++i) {
+      const Pose d = out.pos[i] - base;
+      const Eigen::Vector3d w = d.row(0).transpose();
+      for (int j = 1; j < hs::kJointCount; ++j) spread = std::max(spread, (d.row(j).transpose() - w).norm());
+      ss += w.squaredNorm();
+      if (i > 0) lag1 += w.dot((out.pos[i - 1] - base).row(0).transpose());
+    }
+    CHECK(spread < 1e-12);  // rigid: the same displacement for every joint
+    CHECK(std::sqrt(ss / (3.0 * static_cast<double>(out.size()))) == doctest::Approx(0.001).epsilon(0.05));
+    CHECK(std::abs(lag1 / ss - ar1) < 0.05);
+  }
+  // Its own stream: adding it leaves the joints' own jitter as it was.
+  const auto joints = hs::corrupt_series(clean, tracker_only({.jitter_sd_m = 0.001}), 7);
+  const auto both = hs::corrupt_series(clean, tracker_only({.jitter_sd_m = 0.001, .hand_jitter_sd_m = 0.002}), 7);
+  const Pose a = joints.pos[10] - both.pos[10];
+  for (int j = 1; j < hs::kJointCount; ++j) CHECK((a.row(j) - a.row(0)).norm() < 1e-12);
+  CHECK(a.row(0).norm() > 0.0);
+  hs::CorruptionConfig bad = tracker_only({.hand_jitter_sd_m = -0.001});
+  CHECK_THROWS_AS(hs::validate_corruption(bad), std::invalid_argument);
+  const auto preset = hs::corruption_preset("hand-jitter");
+  CHECK(preset.kind == hs::CorruptionKind::Tracker);
+  CHECK(preset.tracker.hand_jitter_sd_m == doctest::Approx(0.0005));
+  CHECK(preset.tracker.jitter_sd_m == 0.0);
 }
 
 TEST_CASE("tracker joint drops, whole-hand dropouts, jumps and quantisation") {

@@ -18,6 +18,11 @@ Method (per hand column block, both recordings pooled):
     suppresses it: this is an upper bound on the white-noise SD for slow motion.
   * still-hand jitter      = the same estimate restricted to triples in which the wrist
     moved less than 4 mm between t-1 and t+1 (motion contributes little there);
+  * whole-hand jitter      = on the same still triples, the mean over the row's joints
+    of r (per coordinate) against each joint's r minus that mean: the common-mode and
+    the joints' own parts. SD as the RMS of the smallest 98 % over sqrt(1.5) (the 1 mm
+    rounding makes r take few values, so its MAD is a multiple of 0.5 mm; the mean over
+    26 joints averages the rounding out);
   * second difference      = |x_{t+1} - 2 x_t + x_{t-1}| (3-D norm), median (mm/frame^2);
   * jumps                  = joint residual norms |r| above 6 robust SDs (of the
     3-D residual) AND more than 3x the median residual of the other joints of that row
@@ -69,6 +74,12 @@ def mad_sd(values):
     return 1.4826 * statistics.median([abs(v - med) for v in values])
 
 
+def trimmed_sd(values, keep=0.98):
+    """RMS of the smallest `keep` share of |values| (drops jumps and fast flicks)."""
+    v = sorted(x * x for x in values)[: max(1, int(len(values) * keep))]
+    return math.sqrt(sum(v) / len(v))
+
+
 def main():
     data_dir = sys.argv[1] if len(sys.argv) > 1 else os.path.join(
         os.path.dirname(os.path.abspath(__file__)), "..", "..", "shared", "data", "hololens2")
@@ -87,6 +98,8 @@ def main():
     second_diff = []        # per joint, metres
     triples = []            # (row residual norms list) for jump detection
     still_residuals = []    # per coordinate, wrist nearly still
+    still_common = []       # per coordinate: the mean of a still row's joint residuals
+    still_local = []        # per joint and coordinate: its residual minus that mean
 
     for path in files:
         _, times, hands = read_file(path)
@@ -113,6 +126,7 @@ def main():
                 if not (tracked[i - 1] and tracked[i] and tracked[i + 1]):
                     continue
                 norms = []
+                row_r = []
                 w = [rows[i + d][WRIST] for d in (-1, 0, 1)]
                 still = None not in w and math.dist(w[0], w[2]) < 0.004
                 for j in range(JOINTS):
@@ -123,9 +137,14 @@ def main():
                     residuals.extend(r)
                     if still:
                         still_residuals.extend(r)
+                        row_r.append(r)
                     n = math.sqrt(sum(v * v for v in r))
                     norms.append(n)
                     second_diff.append(2.0 * n)  # |x+ - 2x + x-| = 2|r|
+                if len(row_r) == JOINTS:
+                    mean = [sum(r[k] for r in row_r) / JOINTS for k in range(3)]
+                    still_common.extend(mean)
+                    still_local.extend(r[k] - mean[k] for r in row_r for k in range(3))
                 resid_norms.extend(norms)
                 triples.append(norms)
 
@@ -159,6 +178,10 @@ def main():
     s_still = mad_sd(still_residuals) / math.sqrt(1.5)
     print(f"still-hand residual coords: {len(still_residuals)}; white-noise SD per coordinate: "
           f"{s_still * 1e3:.2f} mm (1 mm rounding alone gives {1 / math.sqrt(12):.2f} mm)")
+    if still_common:
+        print(f"still rows with all joints: {len(still_common) // 3}; white-noise SD per coordinate (trimmed RMS): "
+              f"whole-hand {trimmed_sd(still_common) / math.sqrt(1.5) * 1e3:.2f} mm, "
+              f"joints' own {trimmed_sd(still_local) / math.sqrt(1.5) * 1e3:.2f} mm")
     print(f"median second difference |x+ - 2x + x-|: {statistics.median(second_diff) * 1e3:.2f} mm/frame^2")
     print(f"jump threshold |r| > {thresh * 1e3:.1f} mm: {len(jumps)} of {len(resid_norms)} joint samples = "
           f"{len(jumps) / len(resid_norms):.5f} per joint per row")

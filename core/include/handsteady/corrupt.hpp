@@ -4,6 +4,7 @@
 //  tracker - live tracker noise: jitter, dropped joints, whole-hand dropouts, joint jumps
 //            (statistics measured on the HoloLens 2 recordings, docs/CORRUPTION.md).
 //  tremor  - 4-6 Hz Parkinsonian or 8-12 Hz physiological oscillation of hand and fingers.
+//  hand-jitter - the whole hand displaced by white jitter, row by row (common-mode error).
 // Random numbers come from std::mt19937_64 (whose sequence the standard fixes) through
 // our own uniform/normal transforms, so a seed gives the same output on every run.
 #include "handsteady/track.hpp"
@@ -39,6 +40,10 @@ struct TrackerCorruption {
   double outlier_prob = 0.0;
   double outlier_min_m = 0.010, outlier_max_m = 0.050;
   int outlier_max_rows = 3;
+  // Whole-hand jitter: one displacement per row added to every joint (the common-mode
+  // error of a tracker that fits a whole hand model per frame; per coordinate SD, the
+  // same AR(1) correlation as the joints' jitter). Its own random stream.
+  double hand_jitter_sd_m = 0.0;
 };
 
 struct TremorCorruption {
@@ -56,7 +61,9 @@ struct CorruptionConfig {
   TremorCorruption tremor;
 };
 
-// "paper", "tracker", "tremor" (= Parkinsonian), "tremor-physiological"; throws std::invalid_argument.
+// "paper", "tracker", "tremor" (= Parkinsonian), "tremor-physiological", "hand-jitter"
+// (whole-hand jitter only, chained with another preset: "hand-jitter+tracker"); throws
+// std::invalid_argument.
 CorruptionConfig corruption_preset(std::string_view name);
 
 // Throws std::invalid_argument naming the parameter when a value is out of range
