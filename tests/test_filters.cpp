@@ -4,6 +4,7 @@
 #include "handsteady/stgae_filter.hpp"
 #include "handsteady/stgae_model.hpp"
 
+#include "allocation_counting.hpp"
 #include "test_support.hpp"
 
 #include <array>
@@ -11,58 +12,10 @@
 #include <complex>
 #include <cstdlib>
 #include <limits>
-#include <new>
 #include <numbers>
 #include <random>
 #include <vector>
 
-// ---- allocation counting: replaces the global allocation functions of this executable ----
-namespace {
-bool g_count_allocations = false;
-long g_allocations = 0;
-
-void* counted_malloc(std::size_t n) {
-  if (g_count_allocations) ++g_allocations;
-  return std::malloc(n == 0 ? 1 : n);
-}
-void* counted_aligned(std::size_t n, std::align_val_t al) {
-  if (g_count_allocations) ++g_allocations;
-  const auto a = static_cast<std::size_t>(al);
-  return std::aligned_alloc(a, ((n == 0 ? 1 : n) + a - 1) / a * a);
-}
-}  // namespace
-
-void* operator new(std::size_t n) {
-  if (void* p = counted_malloc(n)) return p;
-  throw std::bad_alloc();
-}
-void* operator new[](std::size_t n) {
-  if (void* p = counted_malloc(n)) return p;
-  throw std::bad_alloc();
-}
-void* operator new(std::size_t n, const std::nothrow_t&) noexcept { return counted_malloc(n); }
-void* operator new[](std::size_t n, const std::nothrow_t&) noexcept { return counted_malloc(n); }
-void* operator new(std::size_t n, std::align_val_t al) {
-  if (void* p = counted_aligned(n, al)) return p;
-  throw std::bad_alloc();
-}
-void* operator new[](std::size_t n, std::align_val_t al) {
-  if (void* p = counted_aligned(n, al)) return p;
-  throw std::bad_alloc();
-}
-// The replaced operator new uses malloc, so free is the matching release; GCC cannot see
-// that through the replacement and warns.
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
-void operator delete(void* p, std::align_val_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::align_val_t) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
-#pragma GCC diagnostic pop
 
 namespace {
 
@@ -573,14 +526,15 @@ TEST_CASE("filter_series: causal per row, untracked rows stay untracked") {
 }
 
 TEST_CASE("push and estimate never allocate") {
+  using hs::test::g_allocations, hs::test::g_counting;
   const Motion m = noisy_motion(1000, 29);
   // The counter itself works (so the zero below means something).
   g_allocations = 0;
-  g_count_allocations = true;
+  g_counting = true;
   std::vector<double>* probe = new std::vector<double>(10);
-  g_count_allocations = false;
+  g_counting = false;
   delete probe;
-  REQUIRE(g_allocations >= 1);
+  REQUIRE(g_allocations.load() >= 1);
 
   for (const bool palm_fit : {false, true})  // also behind the palm fit (palm_fit.hpp)
   for (FilterMethod method : kMethods) {
@@ -592,15 +546,15 @@ TEST_CASE("push and estimate never allocate") {
     Pose holey = m.pos[0];
     holey.row(1).setConstant(kNaN);
     g_allocations = 0;
-    g_count_allocations = true;
+    g_counting = true;
     for (size_t i = 0; i < m.t.size(); ++i) {
       f->push(m.t[i], (i % 10 == 3) ? holey : m.pos[i]);
       f->push(m.t[i], m.pos[i]);  // rejected
       f->estimate(m.t[i] + 0.05, out);
     }
     f->reset();
-    g_count_allocations = false;
-    CHECK_MESSAGE(g_allocations == 0, hs::filter_method_name(method) << (palm_fit ? " with the palm fit" : ""));
+    g_counting = false;
+    CHECK_MESSAGE(g_allocations.load() == 0, hs::filter_method_name(method) << (palm_fit ? " with the palm fit" : ""));
   }
 }
 

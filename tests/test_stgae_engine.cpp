@@ -4,96 +4,12 @@
 #include "handsteady/stgae_filter.hpp"
 
 #include "handsteady/skeleton.hpp"
+#include "allocation_counting.hpp"
 #include "test_support.hpp"
 
-#include <atomic>
 #include <cmath>
 #include <cstdlib>
-#include <new>
 #include <random>
-
-// ---- allocation counting: global operator new, and (outside sanitizer builds) malloc ----
-namespace {
-std::atomic<bool> g_counting{false};
-std::atomic<long> g_allocations{0};
-void note_allocation() {
-  if (g_counting.load(std::memory_order_relaxed)) g_allocations.fetch_add(1, std::memory_order_relaxed);
-}
-}  // namespace
-
-void* operator new(std::size_t n) {
-  note_allocation();
-  if (void* p = std::malloc(n ? n : 1)) return p;
-  throw std::bad_alloc();
-}
-void* operator new[](std::size_t n) {
-  note_allocation();
-  if (void* p = std::malloc(n ? n : 1)) return p;
-  throw std::bad_alloc();
-}
-// The replaced operator new uses malloc, so free is the matching release; GCC cannot see
-// that through the replacement and warns (at -O1 and above, as in the ASan build).
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
-#pragma GCC diagnostic pop
-
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
-#define HS_COUNT_MALLOC 0
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer) || __has_feature(memory_sanitizer)
-#define HS_COUNT_MALLOC 0
-#endif
-#endif
-#if !defined(HS_COUNT_MALLOC) && defined(__GLIBC__)
-#define HS_COUNT_MALLOC 1
-#endif
-#ifndef HS_COUNT_MALLOC
-#define HS_COUNT_MALLOC 0
-#endif
-
-#if HS_COUNT_MALLOC
-// Eigen allocates with malloc, not operator new: interpose glibc's malloc family too
-// (sanitizers interpose it themselves, so there only operator new is counted).
-extern "C" {
-void* __libc_malloc(std::size_t);
-void* __libc_calloc(std::size_t, std::size_t);
-void* __libc_realloc(void*, std::size_t);
-void* __libc_memalign(std::size_t, std::size_t);
-void __libc_free(void*);
-void* malloc(std::size_t n) noexcept {
-  note_allocation();
-  return __libc_malloc(n);
-}
-void* calloc(std::size_t a, std::size_t b) noexcept {
-  note_allocation();
-  return __libc_calloc(a, b);
-}
-void* realloc(void* p, std::size_t n) noexcept {
-  note_allocation();
-  return __libc_realloc(p, n);
-}
-void free(void* p) noexcept { __libc_free(p); }
-int posix_memalign(void** out, std::size_t align, std::size_t n) noexcept {
-  note_allocation();
-  void* p = __libc_memalign(align, n);
-  if (!p) return ENOMEM;
-  *out = p;
-  return 0;
-}
-void* aligned_alloc(std::size_t align, std::size_t n) noexcept {
-  note_allocation();
-  return __libc_memalign(align, n);
-}
-void* memalign(std::size_t align, std::size_t n) noexcept {
-  note_allocation();
-  return __libc_memalign(align, n);
-}
-}
-#endif
 
 namespace {
 
@@ -413,6 +329,7 @@ TEST_CASE("hole filling: a joint never seen takes the wrist, a lost joint holds 
 }
 
 TEST_CASE("no heap allocation per frame after warm-up") {
+  using hs::test::g_allocations, hs::test::g_counting;
   const auto c = small_causal(hs::StgaeCVariant::Dot, true, true);
   const auto net = hs::make_stgae_net<float>(c, hs::random_stgae_weights(c, 5, 1.0));
   auto cg = small_causal(hs::StgaeCVariant::Gat, true, true);
