@@ -134,6 +134,8 @@ TrainConfig parse_train_config(std::string_view text, const std::string& source)
     throw InputError(SourceLocation{source, 0, ""}, std::string("invalid JSON: ") + e.what());
   }
   if (!j.is_object()) config_error(source, "", "expected a JSON object");
+  if (j.contains("base"))
+    config_error(source, "base", "a base config is resolved only when reading a config file (read_train_config)");
   for (const auto& [k, v] : j.items())
     if (k != "model" && k != "data" && k != "augment" && k != "corruption" && k != "train" && k != "loss")
       config_error(source, k, "unknown key (expected model, data, augment, corruption, train, loss)");
@@ -314,12 +316,50 @@ TrainConfig parse_train_config(std::string_view text, const std::string& source)
   return c;
 }
 
-TrainConfig read_train_config(const std::filesystem::path& path) {
+namespace {
+
+// A config file with its "base" chain resolved: the base (a path relative to the file's
+// folder) is read first and the file is applied to it as an RFC 7386 merge patch
+// (objects merge key by key, anything else, arrays included, replaces; null removes).
+// So an ablation names the config it varies and only the keys it changes.
+json resolve_config_file(const std::filesystem::path& path, std::vector<std::filesystem::path>& chain) {
   std::ifstream f(path, std::ios::binary);
-  if (!f) throw InputError(SourceLocation{path.string(), 0, ""}, "cannot open the training config");
+  if (!f) {
+    const std::string from = chain.empty() ? "" : " (the base of " + chain.back().string() + ")";
+    throw InputError(SourceLocation{path.string(), 0, ""}, "cannot open the training config" + from);
+  }
   std::ostringstream s;
   s << f.rdbuf();
-  return parse_train_config(s.str(), path.string());
+  json j;
+  try {
+    j = json::parse(s.str());
+  } catch (const json::parse_error& e) {
+    throw InputError(SourceLocation{path.string(), 0, ""}, std::string("invalid JSON: ") + e.what());
+  }
+  if (!j.is_object()) config_error(path.string(), "", "expected a JSON object");
+  if (!j.contains("base")) return j;
+  const json& b = j.at("base");
+  if (!b.is_string() || b.get<std::string>().empty())
+    config_error(path.string(), "base", "expected the path of another config (relative to this file's folder)");
+  const std::filesystem::path base = path.parent_path() / b.get<std::string>();
+  chain.push_back(path);
+  for (const auto& p : chain)
+    if (std::filesystem::weakly_canonical(p) == std::filesystem::weakly_canonical(base))
+      config_error(path.string(), "base", "names a config already in its own chain of bases: " + base.string());
+  json merged = resolve_config_file(base, chain);
+  chain.pop_back();
+  j.erase("base");
+  merged.merge_patch(j);
+  return merged;
+}
+
+}  // namespace
+
+TrainConfig read_train_config(const std::filesystem::path& path) {
+  std::vector<std::filesystem::path> chain;
+  const json resolved = resolve_config_file(path, chain);
+  // The resolved config is what the model's meta keeps: the full recipe, not the patch.
+  return parse_train_config(resolved.dump(2), path.string());
 }
 
 LossWeights TrainConfig::loss_at(int epoch) const {

@@ -77,6 +77,9 @@ struct TrainConfig {
 // "corruption": {...}, "train": {...}, "loss": {...}}. Unknown keys, wrong types and bad
 // values throw InputError naming the source and the key path.
 TrainConfig parse_train_config(std::string_view json, const std::string& source = "");
+// A file may name {"base": "other.json"} (relative to its folder) and give only what it
+// changes: applied to the base as a JSON merge patch (RFC 7386: objects merge, arrays and
+// values replace, null removes); bases chain, a cycle is an error. `json` keeps the result.
 TrainConfig read_train_config(const std::filesystem::path& path);
 double learning_rate(const TrainConfig& config, int epoch);
 

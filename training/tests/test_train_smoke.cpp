@@ -330,6 +330,84 @@ TEST_CASE("training config errors name the key") {
   CHECK(learning_rate(c, 5) == 0.001);
 }
 
+// The field and the file an InputError names ("(no error)" when the file reads).
+std::pair<std::string, std::string> file_error(const std::filesystem::path& path) {
+  try {
+    (void)read_train_config(path);
+  } catch (const InputError& e) {
+    return {e.where().file, e.where().field};
+  }
+  return {"(no error)", ""};
+}
+
+TEST_CASE("a config file names a base and gives only what it changes (JSON merge patch)") {
+  const auto dir = temp_dir("base");
+  auto write = [&](const std::string& name, const std::string& text) {
+    std::filesystem::create_directories((dir / name).parent_path());
+    std::ofstream(dir / name) << text;
+    return dir / name;
+  };
+  write("base.json", R"({"model": {"window": 8, "horizon": 2, "predict_decoder_channels": [64, 16, 3]},
+    "train": {"epochs": 5, "lr": [[0, 0.01], [3, 0.001]]}, "loss": {"predict": 0.5, "smooth": 0.2}})");
+  // Objects merge key by key, arrays replace whole, null removes (back to the default).
+  write("sub/child.json", R"({"base": "../base.json", "train": {"lr": [[0, 0.02]]},
+    "model": {"predict_decoder_channels": null}, "loss": {"smooth": 0.3}})");
+  const TrainConfig c = read_train_config(dir / "sub/child.json");
+  const TrainConfig defaults = parse_train_config(R"({"model": {}})");
+  CHECK(c.model.window == 8);
+  CHECK(c.model.horizon == 2);
+  CHECK(c.model.predict_decoder_channels == defaults.model.predict_decoder_channels);
+  CHECK(c.epochs == 5);
+  REQUIRE(c.lr.size() == 1);
+  CHECK(c.lr[0].second == 0.02);
+  CHECK(c.loss.predict == 0.5);
+  CHECK(c.loss.smooth == 0.3);
+  // The model's meta keeps the resolved recipe, not the patch.
+  CHECK(c.json.find("\"base\"") == std::string::npos);
+  CHECK(c.json.find("\"window\": 8") != std::string::npos);
+  // Bases chain.
+  write("grandchild.json", R"({"base": "sub/child.json", "train": {"epochs": 7}})");
+  const TrainConfig g = read_train_config(dir / "grandchild.json");
+  CHECK(g.epochs == 7);
+  CHECK(g.loss.smooth == 0.3);
+  CHECK(g.model.window == 8);
+  // Errors name the file and the key: a missing base, a cycle, a base that is no path, a
+  // bad key in the base itself, and "base" in config text read without a file.
+  write("missing.json", R"({"base": "nope.json"})");
+  CHECK(file_error(dir / "missing.json").first == (dir / "nope.json").string());
+  write("a.json", R"({"base": "b.json"})");
+  write("b.json", R"({"base": "a.json"})");
+  CHECK(file_error(dir / "a.json") == std::pair<std::string, std::string>{(dir / "b.json").string(), "base"});
+  write("self.json", R"({"base": "self.json"})");
+  CHECK(file_error(dir / "self.json").second == "base");
+  write("number.json", R"({"base": 3, "model": {}})");
+  CHECK(file_error(dir / "number.json") == std::pair<std::string, std::string>{(dir / "number.json").string(), "base"});
+  write("badbase.json", R"({"model": {}, "train": {"epocs": 3}})");
+  write("usesbad.json", R"({"base": "badbase.json"})");
+  CHECK(file_error(dir / "usesbad.json").second == "train.epocs");
+  CHECK(error_field(R"({"base": "x.json", "model": {}})") == "base");
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("every training config in models/configs reads (bases resolved)") {
+  int n = 0;
+  for (const auto& e : std::filesystem::directory_iterator(HS_MODEL_CONFIGS)) {
+    if (e.path().extension() != ".json") continue;
+    CAPTURE(e.path().string());
+    CHECK(file_error(e.path()).first == "(no error)");
+    ++n;
+  }
+  CHECK(n >= 5);
+  // An ablation is its base with the keys it names changed: the STGAE config is the shipped
+  // Multi-STGAE's without the prediction branch.
+  const TrainConfig shipped = read_train_config(std::filesystem::path(HS_MODEL_CONFIGS) / "shipped_causal_xr26.json");
+  const TrainConfig stgae = read_train_config(std::filesystem::path(HS_MODEL_CONFIGS) / "stgae_causal_xr26.json");
+  CHECK(shipped.model.predict);
+  CHECK_FALSE(stgae.model.predict);
+  CHECK(stgae.model.encoder_channels == shipped.model.encoder_channels);
+  CHECK(stgae.epochs == shipped.epochs);
+}
+
 TEST_CASE("two tiny epochs on synthetic motion: the loss decreases, the model file loads, resume continues") {
   const auto dir = temp_dir("smoke");
   const auto out = dir / "tiny.hsm";
