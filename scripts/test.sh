@@ -24,10 +24,14 @@ if [ "${1:-}" != "--quick" ]; then
   # The training tests too: libtorch itself is not instrumented, our code around it is.
   # -O1, as the AddressSanitizer documentation advises for reasonable speed: with Eigen at
   # -O0 the synthetic benchmark grid test alone took 490-780 s, at -O1 27 s.
-  run build/asan -DCMAKE_BUILD_TYPE=Debug "-DCMAKE_CXX_FLAGS_DEBUG=-g -O1" -DHS_SANITIZE=address,undefined
+  # The sanitizer builds leave out the layer's x86-64-v3 copy (HS_LAYER_V3: the same
+  # sources again with -march=x86-64-v3, a sixth of the build) and the Google benchmarks:
+  # the baseline layer runs the same code under the sanitizers.
+  run build/asan -DCMAKE_BUILD_TYPE=Debug "-DCMAKE_CXX_FLAGS_DEBUG=-g -O1" -DHS_SANITIZE=address,undefined \
+    -DHS_LAYER_V3=OFF
   # Concurrency tests (CTest label "tsan"; their targets in tests/tsan_targets.txt).
   HS_TARGETS="$(grep -v '^#' tests/tsan_targets.txt)" HS_CTEST_ARGS="-L tsan" \
-    run build/tsan -DCMAKE_BUILD_TYPE=Debug -DHS_SANITIZE=thread -DHS_BUILD_TRAINING=OFF
+    run build/tsan -DCMAKE_BUILD_TYPE=Debug -DHS_SANITIZE=thread -DHS_BUILD_TRAINING=OFF -DHS_LAYER_V3=OFF
   # libFuzzer (clang, ASan+UBSan) on every parser of user files: the .hsm model loader,
   # the track CSV reader, the FPHA/MRTK/BVH importers, the layer's JSON configuration
   # (docs/FUZZING.md). Fixed seed; each from a scratch copy of its seed corpus

@@ -223,7 +223,7 @@ bool v3_build_mapped() {
 
 TEST_CASE("the layer hands over to its x86-64-v3 build on a CPU that has it") {
 #ifndef HS_LAYER_V3_BUILT
-  MESSAGE("skipped: this build has no x86-64-v3 layer (HS_ARCH set or not x86-64)");
+  MESSAGE("skipped: this build has no x86-64-v3 layer (HS_LAYER_V3 off, as in the sanitizer builds, HS_ARCH set or not x86-64)");
 #else
   const TrackFiles f = make_tracks("isa", 3.0);
   reset_env(f);
