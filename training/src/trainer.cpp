@@ -124,9 +124,8 @@ std::vector<DataSource> parse_sources(const json& list, const std::string& sourc
   return out;
 }
 
-}  // namespace
-
-TrainConfig parse_train_config(std::string_view text, const std::string& source) {
+// Config text as a JSON object, or an InputError naming the source.
+json parse_config_object(std::string_view text, const std::string& source) {
   json j;
   try {
     j = json::parse(text);
@@ -134,13 +133,28 @@ TrainConfig parse_train_config(std::string_view text, const std::string& source)
     throw InputError(SourceLocation{source, 0, ""}, std::string("invalid JSON: ") + e.what());
   }
   if (!j.is_object()) config_error(source, "", "expected a JSON object");
+  return j;
+}
+
+TrainConfig config_from_object(const json& j, const std::string& source, std::string text);
+
+}  // namespace
+
+TrainConfig parse_train_config(std::string_view text, const std::string& source) {
+  return config_from_object(parse_config_object(text, source), source, std::string(text));
+}
+
+namespace {
+
+// `text` is what the model's meta keeps.
+TrainConfig config_from_object(const json& j, const std::string& source, std::string text) {
   if (j.contains("base"))
     config_error(source, "base", "a base config is resolved only when reading a config file (read_train_config)");
   for (const auto& [k, v] : j.items())
     if (k != "model" && k != "data" && k != "augment" && k != "corruption" && k != "train" && k != "loss")
       config_error(source, k, "unknown key (expected model, data, augment, corruption, train, loss)");
   TrainConfig c;
-  c.json = std::string(text);
+  c.json = std::move(text);
   if (!j.contains("model")) config_error(source, "model", "missing (the network configuration)");
   c.model = parse_stgae_config(j.at("model").dump(), source);
   if (c.model.skeleton != "xr26") config_error(source, "model.skeleton", "training data is xr26 only");
@@ -316,8 +330,6 @@ TrainConfig parse_train_config(std::string_view text, const std::string& source)
   return c;
 }
 
-namespace {
-
 // A config file with its "base" chain resolved: the base (a path relative to the file's
 // folder) is read first and the file is applied to it as an RFC 7386 merge patch
 // (objects merge key by key, anything else, arrays included, replaces; null removes).
@@ -330,13 +342,7 @@ json resolve_config_file(const std::filesystem::path& path, std::vector<std::fil
   }
   std::ostringstream s;
   s << f.rdbuf();
-  json j;
-  try {
-    j = json::parse(s.str());
-  } catch (const json::parse_error& e) {
-    throw InputError(SourceLocation{path.string(), 0, ""}, std::string("invalid JSON: ") + e.what());
-  }
-  if (!j.is_object()) config_error(path.string(), "", "expected a JSON object");
+  json j = parse_config_object(s.str(), path.string());
   if (!j.contains("base")) return j;
   const json& b = j.at("base");
   if (!b.is_string() || b.get<std::string>().empty())
@@ -359,7 +365,7 @@ TrainConfig read_train_config(const std::filesystem::path& path) {
   std::vector<std::filesystem::path> chain;
   const json resolved = resolve_config_file(path, chain);
   // The resolved config is what the model's meta keeps: the full recipe, not the patch.
-  return parse_train_config(resolved.dump(2), path.string());
+  return config_from_object(resolved, path.string(), resolved.dump(2));
 }
 
 LossWeights TrainConfig::loss_at(int epoch) const {

@@ -330,7 +330,7 @@ TEST_CASE("training config errors name the key") {
   CHECK(learning_rate(c, 5) == 0.001);
 }
 
-// The field and the file an InputError names ("(no error)" when the file reads).
+// The file and the field an InputError names ("(no error)" when the file reads).
 std::pair<std::string, std::string> file_error(const std::filesystem::path& path) {
   try {
     (void)read_train_config(path);
