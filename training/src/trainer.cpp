@@ -31,7 +31,9 @@ namespace hs::train {
 
 namespace {
 
-using json = nlohmann::json;
+// Ordered: keyed source lists and mixes are taken in the order the config gives them, and
+// a merge patch keeps a base's keys where they were.
+using json = nlohmann::ordered_json;
 
 [[noreturn]] void config_error(const std::string& source, const std::string& key, const std::string& what) {
   throw InputError(SourceLocation{source, 0, key}, what);
@@ -83,14 +85,27 @@ void check_presets(const std::vector<std::string>& names, const std::string& sou
   }
 }
 
-// [{"fpha": root, "subjects": [1, 2]}, {"path": p, "include": [..], "exclude": [..]}, ...],
-// each with an optional "weight".
+// The entries of a list the config may give as an array or, so that a derived config can
+// change or drop one entry by name (merge patch), as an object keyed by name. Either way in
+// the order given, each with the key path errors name.
+std::vector<std::pair<std::string, const json*>> entries(const json& list, const std::string& source,
+                                                         const std::string& key, const char* what) {
+  if (!(list.is_array() || list.is_object()) || list.empty())
+    config_error(source, key, std::string("expected a non-empty array or object of ") + what);
+  std::vector<std::pair<std::string, const json*>> out;
+  if (list.is_array())
+    for (size_t i = 0; i < list.size(); ++i) out.emplace_back(key + "[" + std::to_string(i) + "]", &list[i]);
+  else
+    for (const auto& [name, v] : list.items()) out.emplace_back(key + "." + name, &v);
+  return out;
+}
+
+// [{"fpha": root, "subjects": [1, 2]}, {"path": p, "include": [..], "exclude": [..]}, ...]
+// or {"name": {...}, ...}, each with an optional "weight".
 std::vector<DataSource> parse_sources(const json& list, const std::string& source, const std::string& key) {
-  if (!list.is_array() || list.empty()) config_error(source, key, "expected a non-empty array of sources");
   std::vector<DataSource> out;
-  for (size_t i = 0; i < list.size(); ++i) {
-    const json& e = list[i];
-    const std::string k = key + "[" + std::to_string(i) + "]";
+  for (const auto& [k, ep] : entries(list, source, key, "sources")) {
+    const json& e = *ep;
     if (!e.is_object()) config_error(source, k, "expected {\"fpha\": root, \"subjects\": [...]} or {\"path\": ...}");
     DataSource d;
     try {
@@ -214,26 +229,34 @@ TrainConfig config_from_object(const json& j, const std::string& source, std::st
     if (!(s >= 0.25 && s <= 4)) config_error(source, "augment.speed_factors", "each must be in [0.25, 4]");
 
   Section cor(j, "corruption", source);
+  // [{"presets": "tracker+tremor", "weight": 1}, ...] or {"tracker+tremor": 1, ...}.
   if (const json* mix = cor.raw("mix")) {
-    if (!mix->is_array() || mix->empty()) config_error(source, cor.key("mix"), "expected a non-empty array");
-    for (size_t i = 0; i < mix->size(); ++i) {
-      const json& e = (*mix)[i];
-      const std::string key = cor.key("mix") + "[" + std::to_string(i) + "]";
-      if (!e.is_object() || !e.contains("presets") || !e.at("presets").is_string())
-        config_error(source, key, "expected {\"presets\": \"tracker+tremor\", \"weight\": 1}");
-      for (const auto& [k, v] : e.items())
-        if (k != "presets" && k != "weight") config_error(source, key + "." + k, "unknown key");
+    for (const auto& [key, ep] : entries(*mix, source, cor.key("mix"), "corruption presets")) {
+      const json& e = *ep;
       CorruptionMixEntry m;
+      std::string chain;
+      if (mix->is_object()) {
+        if (!e.is_number()) config_error(source, key, "expected a weight (the key is the preset chain)");
+        chain = key.substr(cor.key("mix").size() + 1);
+        m.weight = e.get<double>();
+      } else {
+        if (!e.is_object() || !e.contains("presets") || !e.at("presets").is_string())
+          config_error(source, key, "expected {\"presets\": \"tracker+tremor\", \"weight\": 1}");
+        for (const auto& [k, v] : e.items())
+          if (k != "presets" && k != "weight") config_error(source, key + "." + k, "unknown key");
+        chain = e.at("presets").get<std::string>();
+        if (e.contains("weight")) {
+          if (!e.at("weight").is_number()) config_error(source, key + ".weight", "wrong type");
+          m.weight = e.at("weight").get<double>();
+        }
+      }
       try {
-        m.presets = parse_preset_chain(e.at("presets").get<std::string>());
+        m.presets = parse_preset_chain(chain);
       } catch (const std::invalid_argument& ex) {
-        config_error(source, key + ".presets", ex.what());
+        config_error(source, mix->is_object() ? key : key + ".presets", ex.what());
       }
-      if (e.contains("weight")) {
-        if (!e.at("weight").is_number()) config_error(source, key + ".weight", "wrong type");
-        m.weight = e.at("weight").get<double>();
-      }
-      if (!(m.weight >= 0)) config_error(source, key + ".weight", "must be >= 0");
+      if (!(m.weight >= 0 && std::isfinite(m.weight)))
+        config_error(source, mix->is_object() ? key : key + ".weight", "must be finite and >= 0");
       c.mix.push_back(std::move(m));
     }
   }

@@ -389,6 +389,57 @@ TEST_CASE("a config file names a base and gives only what it changes (JSON merge
   std::filesystem::remove_all(dir);
 }
 
+TEST_CASE("sources and the corruption mix keyed by name: same recipe, a patch changes or drops one entry") {
+  const auto listed = parse_train_config(R"({"model": {}, "data": {
+      "train": [{"path": "/d/leap", "weight": 1}, {"fpha": "/d/fpha", "subjects": [1, 2], "weight": 2}],
+      "val": [{"path": "/d/manip"}]},
+      "corruption": {"mix": [{"presets": "tracker", "weight": 3}, {"presets": "paper+tremor", "weight": 1}]}})");
+  // Keys that sort the other way round: the order given is the order taken.
+  const auto keyed = parse_train_config(R"({"model": {}, "data": {
+      "train": {"z_leap": {"path": "/d/leap", "weight": 1}, "a_fpha": {"fpha": "/d/fpha", "subjects": [1, 2], "weight": 2}},
+      "val": {"manip": {"path": "/d/manip"}}},
+      "corruption": {"mix": {"tracker": 3, "paper+tremor": 1}}})");
+  REQUIRE(keyed.train_sources.size() == 2);
+  for (size_t i = 0; i < 2; ++i) {
+    CHECK(keyed.train_sources[i].path == listed.train_sources[i].path);
+    CHECK(keyed.train_sources[i].fpha == listed.train_sources[i].fpha);
+    CHECK(keyed.train_sources[i].weight == listed.train_sources[i].weight);
+  }
+  CHECK(keyed.val_sources[0].path == listed.val_sources[0].path);
+  REQUIRE(keyed.mix.size() == 2);
+  for (size_t i = 0; i < 2; ++i) {
+    CHECK(keyed.mix[i].presets == listed.mix[i].presets);
+    CHECK(keyed.mix[i].weight == listed.mix[i].weight);
+  }
+  // A derived config changes one weight and drops one entry by name; the rest keep their place.
+  const auto dir = temp_dir("keyed");
+  std::ofstream(dir / "base.json") << R"({"model": {}, "data": {
+      "train": {"leap": {"path": "/d/leap"}, "fpha": {"fpha": "/d/fpha", "subjects": [1], "weight": 2}, "bvh": {"path": "/d/b"}},
+      "val": {"manip": {"path": "/d/manip"}}},
+      "corruption": {"mix": {"tracker": 3, "paper": 2, "tremor": 1}}})";
+  std::ofstream(dir / "child.json") << R"({"base": "base.json", "data": {"train": {"fpha": {"weight": 5}, "leap": null}},
+      "corruption": {"mix": {"paper": 4, "clean": 0.5}}})";
+  const TrainConfig c = read_train_config(dir / "child.json");
+  REQUIRE(c.train_sources.size() == 2);
+  CHECK(c.train_sources[0].fpha);
+  CHECK(c.train_sources[0].weight == 5.0);
+  CHECK(c.train_sources[0].subjects == std::vector<int>{1});
+  CHECK(c.train_sources[1].path == "/d/b");
+  REQUIRE(c.mix.size() == 4);
+  CHECK(c.mix[1].presets == std::vector<std::string>{"paper"});
+  CHECK(c.mix[1].weight == 4.0);
+  CHECK(c.mix[3].presets.empty());  // "clean", added last
+  std::filesystem::remove_all(dir);
+  // Errors name the entry by its key.
+  CHECK(error_field(R"({"model": {}, "data": {"train": {"leap": {"path": "x", "bogus": 1}}, "val": [{"path": "y"}]}})") ==
+        "data.train.leap.bogus");
+  CHECK(error_field(R"({"model": {}, "data": {"train": {}, "val": [{"path": "y"}]}})") == "data.train");
+  CHECK(error_field(R"({"model": {}, "corruption": {"mix": {"nope": 1}}})") == "corruption.mix.nope");
+  CHECK(error_field(R"({"model": {}, "corruption": {"mix": {"tracker": "3"}}})") == "corruption.mix.tracker");
+  CHECK(error_field(R"({"model": {}, "corruption": {"mix": {"tracker": -1}}})") == "corruption.mix.tracker");
+  CHECK(error_field(R"({"model": {}, "corruption": {"mix": 3}})") == "corruption.mix");
+}
+
 TEST_CASE("every training config in models/configs reads (bases resolved)") {
   int n = 0;
   for (const auto& e : std::filesystem::directory_iterator(HS_MODEL_CONFIGS)) {
@@ -406,6 +457,15 @@ TEST_CASE("every training config in models/configs reads (bases resolved)") {
   CHECK_FALSE(stgae.model.predict);
   CHECK(stgae.model.encoder_channels == shipped.model.encoder_channels);
   CHECK(stgae.epochs == shipped.epochs);
+  // A keyed source changed by name: the FPHA-5 ablation is the data ablation with one weight.
+  const TrainConfig data = read_train_config(std::filesystem::path(HS_MODEL_CONFIGS) / "ablation_data_xr26.json");
+  const TrainConfig fpha5 = read_train_config(std::filesystem::path(HS_MODEL_CONFIGS) / "ablation_data_fpha5_xr26.json");
+  REQUIRE(fpha5.train_sources.size() == data.train_sources.size());
+  for (size_t i = 0; i < data.train_sources.size(); ++i) {
+    CHECK(fpha5.train_sources[i].path == data.train_sources[i].path);
+    CHECK(fpha5.train_sources[i].weight == (data.train_sources[i].fpha ? 5.0 : data.train_sources[i].weight));
+  }
+  CHECK(fpha5.mix.size() == shipped.mix.size());
 }
 
 TEST_CASE("two tiny epochs on synthetic motion: the loss decreases, the model file loads, resume continues") {
