@@ -39,7 +39,7 @@ if [ "${1:-}" != "--quick" ]; then
   # 30 s for the others: 3.5 min in all).
   cmake -S . -B build/fuzz -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=RelWithDebInfo -DHS_WERROR=ON \
     -DHS_FUZZ=ON -DHS_SANITIZE=address,undefined -DHS_BUILD_TRAINING=OFF -DHS_BUILD_DEMO=OFF >/dev/null
-  fuzzers=(hsm_loader track_csv fpha mrtk bvh layer_config)
+  fuzzers=(hsm_loader track_csv fpha mrtk bvh layer_config train_config)
   cmake --build build/fuzz -j"$jobs" --target "${fuzzers[@]/#/fuzz_}"
   for name in "${fuzzers[@]}"; do
     corpus=build/fuzz/corpus/$name log=build/fuzz/fuzz_$name.log seconds=30 dict=()

@@ -438,6 +438,8 @@ TEST_CASE("sources and the corruption mix keyed by name: same recipe, a patch ch
   CHECK(error_field(R"({"model": {}, "corruption": {"mix": {"tracker": "3"}}})") == "corruption.mix.tracker");
   CHECK(error_field(R"({"model": {}, "corruption": {"mix": {"tracker": -1}}})") == "corruption.mix.tracker");
   CHECK(error_field(R"({"model": {}, "corruption": {"mix": 3}})") == "corruption.mix");
+  // Found by fuzz_train_config: a number too large for a double was another exception type.
+  CHECK_THROWS_AS(parse_train_config(R"({"model": {}, "train": {"grad_clip": 1e3028}})"), InputError);
 }
 
 TEST_CASE("every training config in models/configs reads (bases resolved)") {

@@ -1,0 +1,84 @@
+#pragma once
+// The training recipe: network, data, augmentation, corruption, schedule and losses, read
+// from JSON (docs/TRAINING.md "Config file"). Torch-free (train_config.cpp).
+#include "train_data.hpp"
+
+#include "handsteady/stgae_model.hpp"
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+namespace hs::train {
+
+// Loss weights; every term is in cm^2 (positions) so the weights are comparable.
+struct LossWeights {
+  double pose = 1.0;      // MSE of the denoised window
+  double bone = 1.0;      // (bone length error)^2 of the denoised window
+  double symmetry = 0.1;  // (symmetry edge length error)^2
+  double smooth = 0.0;    // (acceleration error)^2 of the denoised window
+  double predict = 0.2;   // MSE of the predicted frames (second phase only)
+  // (acceleration error)^2 of the predictions (second phase only): along each predicted
+  // path (the last two denoised frames, then the predicted ones) and, with
+  // train.predict_frames >= 3, of each horizon's prediction from frame to frame.
+  double predict_smooth = 0.0;
+  // > 0: the denoising terms of each window are weighted by 1 / (its input's mean squared
+  // joint error + relative_eps_mm^2), normalised to mean 1 per batch; 0: plain means.
+  double relative_eps_mm = 0.0;
+};
+
+struct TrainConfig {
+  StgaeConfig model;
+  // Data: the sources (relative paths are relative to the working directory): by default
+  // FPHA subjects 1-4 to train and 5 to validate; or synthetic motion when
+  // synthetic_takes > 0 (tests, no data needed).
+  std::vector<DataSource> train_sources{fpha_source("../shared/data/fpha", {1, 2, 3, 4})};
+  std::vector<DataSource> val_sources{fpha_source("../shared/data/fpha", {5})};
+  double split_speed_mps = 0.0;  // make_clips: split clips at joints faster than this (0 = off)
+  int synthetic_takes = 0;
+  double synthetic_seconds = 20.0;
+  AugmentConfig augment;
+  std::vector<CorruptionMixEntry> mix;        // training corruption
+  std::vector<std::string> val_presets{"tracker", "paper"};
+  uint64_t val_seed = 5;
+  int val_stride = 0;                          // frames between validation windows; 0 = T
+  // Optimisation.
+  uint64_t seed = 1;
+  int epochs = 30;
+  int denoise_only_epochs = 8;                 // first step of the two-step schedule
+  int batch = 64;
+  int windows_per_epoch = 16384;
+  // Frames per training sequence (>= model.window; 0 = the window). Longer sequences
+  // train the streaming answers (every frame past the window is one) and their
+  // smoothness from frame to frame.
+  int sequence = 0;
+  int predict_frames = 1;                      // last frames of a sequence that predict
+  int sequence_length() const { return sequence > 0 ? sequence : model.window; }
+  std::vector<std::pair<int, double>> lr{{0, 1e-3}};  // (first epoch, rate), piecewise constant
+  double grad_clip = 5.0;                      // max global gradient norm (0 = off)
+  // DGN: the incidence matrices S, T stay at their initial values for these first epochs
+  // (the first stage of the published three-stage schedule).
+  int freeze_graph_epochs = 0;
+  LossWeights loss;
+  // Training-loss weights from an epoch on ("loss.stages"); validation always uses `loss`,
+  // so that validation losses stay comparable across stages.
+  std::vector<std::pair<int, LossWeights>> loss_stages;
+  LossWeights loss_at(int epoch) const;
+  int threads = 0;                             // torch intra-op threads, 0 = default
+  std::string json;                            // the config text, kept in the model's meta
+};
+
+// JSON (docs/TRAINING.md): {"model": {...StgaeConfig...}, "data": {...}, "augment": {...},
+// "corruption": {...}, "train": {...}, "loss": {...}}. Unknown keys, wrong types and bad
+// values throw InputError naming the source and the key path.
+TrainConfig parse_train_config(std::string_view json, const std::string& source = "");
+// A file may name {"base": "other.json"} (relative to its folder) and give only what it
+// changes: applied to the base as a JSON merge patch (RFC 7386: objects merge, arrays and
+// values replace, null removes); bases chain, a cycle is an error. `json` keeps the result.
+TrainConfig read_train_config(const std::filesystem::path& path);
+double learning_rate(const TrainConfig& config, int epoch);
+
+}  // namespace hs::train
