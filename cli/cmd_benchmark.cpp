@@ -33,6 +33,7 @@ struct BenchmarkOptions {
   bool gain = false;       // also each model with its correction gain
   bool smoothed = false;   // also each model with its prediction smoothing
   bool palm_fit = false;   // also raw and tuned One Euro behind the palm fit, and each model without it
+  bool tremor = false;     // also raw and tuned One Euro behind the palm fit and tremor canceller, each model with it
   bench::Options run;
 };
 
@@ -102,6 +103,7 @@ void run_benchmark(const BenchmarkOptions& o, const std::string& command) {
     if (o.gain) add("-gain", [](FilterConfig& v) { v.stgae.gain = true; });
     if (o.smoothed) add("-smoothed", [](FilterConfig& v) { v.stgae.smooth = true; });
     if (o.unbounded) add("-unbounded", [](FilterConfig& v) { v.stgae.bounded = false; });
+    if (o.tremor) add("-tremor", [](FilterConfig& v) { v.tremor_cancel = true; });
     report.notes.push_back(fmt::format("model {} = {}", label, file.string()));
   }
   if (o.palm_fit) {  // the fit alone, in front of the plain baselines
@@ -110,6 +112,15 @@ void run_benchmark(const BenchmarkOptions& o, const std::string& command) {
       if (m.name == "raw" || m.name == "oneeuro-tuned")
         fitted.push_back({m.name + "-palmfit", [make = m.make](const std::string& key) { return with_palm_fit(make(key)); }});
     methods.insert(methods.begin() + classical, fitted.begin(), fitted.end());
+  }
+  if (o.tremor) {  // the canceller alone (behind the palm fit), in front of the plain baselines
+    std::vector<bench::Method> cancelled;
+    for (const auto& m : methods)
+      if (m.name == "raw" || m.name == "oneeuro-tuned")
+        cancelled.push_back({m.name + "-tremor", [make = m.make](const std::string& key) {
+                               return with_palm_fit(with_tremor_cancel(make(key)));
+                             }});
+    methods.insert(methods.begin() + classical, cancelled.begin(), cancelled.end());
   }
   bench::run_grid(sets, methods, o.run, report);
   fs::create_directories(o.out);
@@ -130,6 +141,9 @@ void setup_benchmark(CLI::App& app) {
   sub->add_flag("--palm-fit", o->palm_fit,
                 "Also score raw and tuned One Euro behind the palm fit (raw-palmfit, oneeuro-tuned-palmfit) and each "
                 "model without it (LABEL-nopalmfit; docs/FILTERS.md \"Palm fit\")");
+  sub->add_flag("--tremor-cancel", o->tremor,
+                "Also score raw and tuned One Euro behind the palm fit and the tremor canceller (raw-tremor, "
+                "oneeuro-tuned-tremor) and each model with the canceller (LABEL-tremor; docs/FILTERS.md \"Tremor canceller\")");
   sub->add_flag("--gain", o->gain,
                 "Also score each model with its correction gain (label LABEL-gain; docs/STGAE.md \"Correction gain\")");
   sub->add_flag("--unbounded", o->unbounded,

@@ -50,6 +50,7 @@ struct FilterOptions {
   bool smooth_predictions = false; // predicted displacements smoothed over time
   bool palm_fit = false;     // fit the hand's rigid palm to each input row first (any method)
   bool no_palm_fit = false;  // ... not even for a network method (where it is the default)
+  bool tremor_cancel = false;  // cancel quasi-periodic tremor in each input row first (any method)
 };
 
 // The method and its parameters, from the command line.
@@ -70,6 +71,7 @@ FilterConfig filter_config(const FilterOptions& o) {
   c.stgae.offline = o.offline;
   if (o.palm_fit) c.palm_fit = true;
   if (o.no_palm_fit) c.palm_fit = false;
+  c.tremor_cancel = o.tremor_cancel;
   return c;
 }
 
@@ -144,6 +146,8 @@ void run_filter(const FilterOptions& o) {
       throw InputError({"", 0, flag}, fmt::format("{} is for --method stgae or dgn streaming, with the trust region", flag));
   if (o.palm_fit && o.no_palm_fit) throw InputError({"", 0, "--palm-fit"}, "--palm-fit and --no-palm-fit contradict");
   if (o.palm_fit && o.offline) throw InputError({"", 0, "--palm-fit"}, "--palm-fit streams; --offline has none");
+  if (o.tremor_cancel && o.offline)
+    throw InputError({"", 0, "--tremor-cancel"}, "--tremor-cancel streams; --offline has none");
   if (!o.model_file.empty() && !stgae) {
     throw InputError({"", 0, "--model"}, fmt::format("--model is for --method stgae or dgn, not {}", o.method));
   }
@@ -210,6 +214,9 @@ void setup_filter(CLI::App& app) {
                 "Any method: fit the hand's rigid palm (learnt from the input) to each row's palm joints before "
                 "filtering (docs/FILTERS.md \"Palm fit\"; the default for stgae and dgn streaming)");
   sub->add_flag("--no-palm-fit", o->no_palm_fit, "stgae, dgn: without the palm fit (for comparison)");
+  sub->add_flag("--tremor-cancel", o->tremor_cancel,
+                "Cancel quasi-periodic tremor (3.5-12.5 Hz) in each input row before the method, behind the palm fit "
+                "(any method; docs/FILTERS.md \"Tremor canceller\")");
   sub->add_flag("--offline", o->offline,
                 "Multi-STGAE: run a centred model in window mode over the whole recording (not causal); with "
                 "--horizon-ms, the window ending at each row predicts (the paper's protocol)");

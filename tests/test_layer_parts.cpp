@@ -405,6 +405,39 @@ TEST_CASE("configuration: palm_fit switches the rigid-palm fit for any engine, a
   std::filesystem::remove_all(dir);
 }
 
+TEST_CASE("configuration: tremor_cancel puts the tremor canceller in front of any engine, off by default, a bad value warns") {
+  auto parse = [](const char* text, std::vector<std::string>& warnings) {
+    return hs::layer::parse_layer_config_json(text, "cfg.json", warnings);
+  };
+  std::vector<std::string> w;
+  CHECK_FALSE(parse("{}", w).filter.tremor_cancel);
+  CHECK(parse(R"({"tremor_cancel": true})", w).filter.tremor_cancel);
+  CHECK(parse(R"({"tremor_cancel": "on"})", w).filter.tremor_cancel);
+  CHECK_FALSE(parse(R"({"tremor_cancel": "off"})", w).filter.tremor_cancel);
+  CHECK(w.empty());
+  CHECK_FALSE(parse(R"({"tremor_cancel": "strong"})", w).filter.tremor_cancel);
+  REQUIRE(w.size() == 1);
+  CHECK(w[0].find("cfg.json: tremor_cancel") != std::string::npos);
+  CHECK(w[0].find("strong") != std::string::npos);
+  (void)parse(R"({"tremor_cancel": 1})", w);
+  REQUIRE(w.size() == 2);
+  CHECK(w[1].find("'tremor_cancel' must be") != std::string::npos);
+  // What the setting does: the engine's filter has the canceller (its summary says so).
+  const hs::FilterConfig kalman = parse(R"({"method": "kalman", "tremor_cancel": true})", w).filter;
+  CHECK(hs::filter_params_summary(kalman).find("tremor_cancel=1") != std::string::npos);
+  // The environment overrides the file.
+  const auto dir = hs::test::temp_dir("layer_tremor_cancel_config");
+  const char* file = R"({"method": "kalman", "tremor_cancel": true})";
+  hs::layer::LoadedConfig read = read_file_and_env(dir, file, "HANDSTEADY_TREMOR_CANCEL", "off");
+  CHECK_FALSE(read.config.filter.tremor_cancel);
+  CHECK(read.warnings.empty());
+  read = read_file_and_env(dir, file, "HANDSTEADY_TREMOR_CANCEL", "maybe");
+  CHECK(read.config.filter.tremor_cancel);  // the file's, kept
+  REQUIRE(read.warnings.size() == 1);
+  CHECK(read.warnings[0].find("HANDSTEADY_TREMOR_CANCEL") != std::string::npos);
+  std::filesystem::remove_all(dir);
+}
+
 TEST_CASE("configuration: prediction_smoothing and correction_gain switch the network's options, off by default, a bad value warns") {
   auto parse = [](const std::string& text, std::vector<std::string>& warnings) {
     return hs::layer::parse_layer_config_json(text, "cfg.json", warnings);

@@ -8,6 +8,7 @@
 
 #include "handsteady/model_path.hpp"
 #include "handsteady/palm_fit.hpp"
+#include "handsteady/tremor_cancel.hpp"
 
 #include "handsteady/stgae_filter.hpp"
 #include "handsteady/stgae_model.hpp"
@@ -233,23 +234,27 @@ class KalmanFilter final : public JointwiseFilter<KalmanFilter> {
   std::array<Cov, kJointCount> cov_{};
 };
 
-// Any method behind the palm fit (palm_fit.hpp): the rows it is fed have their palm
-// joints fitted to the hand's rigid palm first.
-class PalmFitFilter final : public PoseFilter {
+// A stage that rewrites each row before the method sees it, learnt per hand: the palm fit
+// (palm_fit.hpp: the palm joints fitted to the hand's rigid palm) or the tremor canceller
+// (tremor_cancel.hpp). After a tracking gap the hand may be another (or the tracker
+// re-estimates its shape, as Leap Motion does): the stage learns anew.
+inline void apply_stage(PalmFit& fit, double, Pose& row) noexcept { fit.apply(row); }
+inline void apply_stage(TremorCancel& cancel, double t, Pose& row) noexcept { cancel.apply(t, row); }
+
+template <class Stage>
+class StageFilter final : public PoseFilter {
  public:
-  explicit PalmFitFilter(std::unique_ptr<PoseFilter> inner) : inner_(std::move(inner)) {}
+  explicit StageFilter(std::unique_ptr<PoseFilter> inner) : inner_(std::move(inner)) {}
   void reset() noexcept override {
-    fit_.reset();
+    stage_.reset();
     inner_->reset();
   }
   bool push(double t, const Pose& observed) noexcept override {
     const double last = inner_->last_time();
-    if (!is_next_time(t, last)) return false;  // before the fit learns from a row the filter refuses
-    // After a tracking gap the hand may be another (or the tracker re-estimates its
-    // shape, as Leap Motion does): the template is learnt anew.
-    if (std::isfinite(last) && t - last > kModelResetGapS) fit_.reset();
+    if (!is_next_time(t, last)) return false;  // the stage learns from no row the filter refuses
+    if (std::isfinite(last) && t - last > kModelResetGapS) stage_.reset();
     row_ = observed;
-    fit_.apply(row_);
+    apply_stage(stage_, t, row_);
     return inner_->push(t, row_);
   }
   void estimate(double t, Pose& out) const noexcept override { inner_->estimate(t, out); }
@@ -257,7 +262,7 @@ class PalmFitFilter final : public PoseFilter {
 
  private:
   std::unique_ptr<PoseFilter> inner_;
-  PalmFit fit_;
+  Stage stage_;
   Pose row_ = untracked_pose();
 };
 
@@ -347,7 +352,12 @@ std::unique_ptr<PoseFilter> make_method_filter(const FilterConfig& c) {
 std::unique_ptr<PoseFilter> make_filter(const FilterConfig& c) {
   require(c.max_gap_s > 0.0 && std::isfinite(c.max_gap_s), "max gap must be positive", c.max_gap_s);
   auto f = make_method_filter(c);
+  if (c.tremor_cancel) f = with_tremor_cancel(std::move(f));
   return palm_fit_on(c) ? with_palm_fit(std::move(f)) : std::move(f);
+}
+
+std::unique_ptr<PoseFilter> with_tremor_cancel(std::unique_ptr<PoseFilter> filter) {
+  return std::make_unique<StageFilter<TremorCancel>>(std::move(filter));
 }
 
 bool palm_fit_on(const FilterConfig& c) noexcept {
@@ -356,11 +366,11 @@ bool palm_fit_on(const FilterConfig& c) noexcept {
 }
 
 std::unique_ptr<PoseFilter> with_palm_fit(std::unique_ptr<PoseFilter> filter) {
-  return std::make_unique<PalmFitFilter>(std::move(filter));
+  return std::make_unique<StageFilter<PalmFit>>(std::move(filter));
 }
 
 std::string filter_params_summary(const FilterConfig& c) {
-  const char* fit = palm_fit_on(c) ? " palm_fit=1" : "";
+  const std::string fit = std::string(palm_fit_on(c) ? " palm_fit=1" : "") + (c.tremor_cancel ? " tremor_cancel=1" : "");
   std::string s;
   switch (c.method) {
     case FilterMethod::Raw:
@@ -414,6 +424,8 @@ HandSeries filter_series_with(const FilterConfig& config, const HandSeries& seri
   if (is_network(config.method) && config.stgae.offline) {
     if (config.palm_fit.value_or(false))
       throw std::invalid_argument("the palm fit streams; window mode (offline) has none");
+    if (config.tremor_cancel)
+      throw std::invalid_argument("the tremor canceller streams; window mode (offline) has none");
     if (!config.stgae.model) throw std::invalid_argument("network method: no model");
     return stgae_offline_series(*config.stgae.model, series, horizon_s);
   }

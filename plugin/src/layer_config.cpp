@@ -116,6 +116,10 @@ struct Applier {
     else if (v == "auto") c.filter.palm_fit.reset();
     else warnings.push_back(where + ": unknown palm fit setting '" + v + "' (auto, on, off)");
   }
+  void tremor_cancel(const std::string& v, const std::string& where) {
+    if (auto on = parse_on_off(v)) c.filter.tremor_cancel = *on;
+    else warnings.push_back(where + ": unknown tremor canceller setting '" + v + "' (on, off)");
+  }
   // The network engine's on/off switches: prediction_smoothing, correction_gain.
   struct Switch {
     const char *key, *env, *what;
@@ -184,6 +188,11 @@ void apply_json(std::string_view text, const std::string& where, Applier& a) {
     if (j["palm_fit"].is_boolean()) a.c.filter.palm_fit = j["palm_fit"].get<bool>();
     else if (j["palm_fit"].is_string()) a.palm_fit(j["palm_fit"].get<std::string>(), where + ": palm_fit");
     else a.warnings.push_back(where + ": 'palm_fit' must be true, false or \"auto\"");
+  }
+  if (j.contains("tremor_cancel")) {
+    if (j["tremor_cancel"].is_boolean()) a.c.filter.tremor_cancel = j["tremor_cancel"].get<bool>();
+    else if (j["tremor_cancel"].is_string()) a.tremor_cancel(j["tremor_cancel"].get<std::string>(), where + ": tremor_cancel");
+    else a.warnings.push_back(where + ": 'tremor_cancel' must be true or false");
   }
   for (const auto& sw : Applier::kSwitches) {
     if (!j.contains(sw.key)) continue;
@@ -298,6 +307,7 @@ void resolve_engine(LayerConfig& c, std::vector<LogMessage>& messages) {
     messages.push_back({LogLevel::Info, "engine " + net_name + ": model " + file.string() +
                                             (requested ? " (method " + net_name + ")" : " (default: a model was found)") +
                                             (palm ? ", palm fit on" : ", palm fit off") +
+                                            (c.filter.tremor_cancel ? ", tremor canceller on" : "") +
                                             (c.filter.stgae.smooth ? ", predictions smoothed" : "") +
                                             (c.filter.stgae.gain ? ", correction gain on" : "")});
   } catch (const std::exception& e) {
@@ -375,6 +385,7 @@ LoadedConfig read_layer_config() {
     else out.warnings.push_back("HANDSTEADY_STGAE_PHASES: not a number: '" + *v + "'");
   }
   if (auto v = env("HANDSTEADY_PALM_FIT")) a.palm_fit(*v, "HANDSTEADY_PALM_FIT");
+  if (auto v = env("HANDSTEADY_TREMOR_CANCEL")) a.tremor_cancel(*v, "HANDSTEADY_TREMOR_CANCEL");
   for (const auto& sw : Applier::kSwitches)
     if (auto v = env(sw.env)) a.switch_to(sw, *v, sw.env);
   if (auto v = env("HANDSTEADY_LOG")) a.log_level(*v, "HANDSTEADY_LOG");

@@ -112,6 +112,9 @@ struct FilterConfig {
   // (palm_fit.hpp; any method). Unset: on for the network methods (part of their shipped
   // pipeline, with the trust region), off for the classical ones (the baselines).
   std::optional<bool> palm_fit;
+  // Cancel quasi-periodic tremor (3.5-12.5 Hz) before the method sees the row, behind the
+  // palm fit (tremor_cancel.hpp; any method; opt-in).
+  bool tremor_cancel = false;
   // A joint unseen for longer than this (relative to the last input) has no estimate
   // and re-initialises when it reappears (classical methods; the network forgets after
   // kModelResetGapS).
@@ -127,6 +130,9 @@ std::unique_ptr<PoseFilter> make_filter(const FilterConfig& config);
 bool palm_fit_on(const FilterConfig& config) noexcept;
 // Any filter behind the palm fit (what make_filter does when palm_fit_on).
 std::unique_ptr<PoseFilter> with_palm_fit(std::unique_ptr<PoseFilter> filter);
+
+// Any filter behind the tremor canceller (what make_filter does when config.tremor_cancel).
+std::unique_ptr<PoseFilter> with_tremor_cancel(std::unique_ptr<PoseFilter> filter);
 
 // The parameters that matter for config.method, "key=value" separated by spaces, e.g.
 // "mincutoff=1 beta=5 dcutoff=1 vec3=1 extrapolate=0 max_gap_ms=500" (used for track metadata).

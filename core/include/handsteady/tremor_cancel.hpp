@@ -1,0 +1,112 @@
+#pragma once
+// Tremor is a quasi-periodic oscillation: a zero-lag canceller for it, learnt per hand.
+//
+// Tremor (Parkinsonian 4-6 Hz, essential 4-12 Hz, physiological 8-12 Hz) sits too close to
+// the hand's voluntary motion for a causal low-pass to remove it without lag. What sets it
+// apart is that it persists: many cycles at a slowly wandering frequency. So, as in the
+// Fourier linear combiners of surgical tremor cancellation (Riviere's WFLC, Veluvolu's
+// BMFLC), the tremor is modelled as an oscillation whose frequency, amplitude and phase are
+// learnt online; the model evaluated at the row's own time is the tremor now, and is
+// subtracted: no lag.
+//
+// Voluntary motion is kept out by a fourth-order high-pass at kTremorHighPassHz (constants
+// and ramps give no residual, a 0.35 Hz sweep 0.1 % of itself). The frequency: the peak
+// of the hand's mean residual's running spectrum (kTremorStepHz bins, memory
+// kTremorSpectrumS) between kTremorMinHz and kTremorMaxHz, interpolated between bins. An
+// oscillator at that frequency gives the regressors sin and cos of its phase; the same
+// high-pass runs over them, with the same (irregular) time steps, so weights fitted to the
+// filtered signal are the tremor's own amplitude and phase, at any frame rate. Channels:
+// the hand's mean residual (the whole-hand oscillation, its noise averaged over the joints)
+// and each joint's residual about it (a finger's part at the same frequency); each has two
+// weights per axis, exponentially weighted least squares with a short memory
+// (kTremorMemoryS), so that phase and amplitude follow a wandering tremor.
+//
+// Only what is tremor-like is cancelled, by two gates:
+// - prominence: tremor is a narrow, lasting peak; voluntary motion (handwriting strokes at
+//   3-6 Hz, gestures) spreads over the band and comes and goes. The peak's power over the
+//   larger of the powers kTremorProminenceOffHz either side (the spectrum reaches below the
+//   band for this) must reach kTremorProminenceLo to count at all, kTremorProminenceHi
+//   to count fully. Without this gate the canceller took in-air handwriting for tremor
+//   (docs/FILTERS.md "Tremor canceller");
+// - prediction: each channel's estimate is scaled by how much of its residual the weights
+//   predicted before they saw it (out of sample: 1 - error power / residual power, full at
+//   kTremorGateSpan), so white or correlated jitter and a still hand are left alone.
+// Residuals beyond kTremorClip of that error's RMS (outliers, jumps) teach it no more than
+// that. Frequencies above kTremorNyquistShare of the input rate are not looked for.
+//
+// noexcept, no allocation. A PoseFilter decorator in front of any method
+// (FilterConfig::tremor_cancel). docs/FILTERS.md "Tremor canceller".
+#include "handsteady/skeleton.hpp"
+#include "handsteady/track.hpp"
+
+#include <Eigen/Core>
+
+#include <array>
+
+namespace hs {
+
+inline constexpr double kTremorMinHz = 3.5;            // the band searched for the tremor's frequency
+inline constexpr double kTremorMaxHz = 12.5;
+inline constexpr double kTremorStepHz = 0.1;           // the spectrum's bins
+inline constexpr double kTremorSpectrumLoHz = 2.5;     // ... from here (below the band, for the prominence)
+inline constexpr int kTremorBins = 111;                // ... to 13.5 Hz
+inline constexpr double kTremorSpectrumS = 2.0;        // memory of the running spectrum
+inline constexpr double kTremorProminenceOffHz = 0.8;  // prominence: the peak's power over the larger at +-this
+inline constexpr double kTremorProminenceLo = 5.0;     // ... below this, nothing is cancelled
+inline constexpr double kTremorProminenceHi = 20.0;    // ... from this on, all of it
+inline constexpr double kTremorNyquistShare = 0.4;     // frequencies looked for: below this share of the input rate
+inline constexpr double kTremorMemoryS = 0.2;          // memory of the amplitude and phase fit
+inline constexpr double kTremorHighPassHz = 2.0;       // the high-pass that keeps voluntary motion out
+inline constexpr double kTremorWarmS = 0.6;            // a residual is used this long after its filter starts
+inline constexpr double kTremorGateSpan = 0.3;         // prediction gain at which a channel counts fully
+inline constexpr double kTremorClip = 3.0;             // residuals clipped at this many RMS of the error
+inline constexpr int kTremorMinJoints = 5;             // joints the hand's mean needs
+
+class TremorCancel {
+ public:
+  TremorCancel() { reset(); }
+  // Forgets everything (a new hand).
+  void reset() noexcept;
+  // Learns from the row at time t (after the last one) and subtracts the tremor it has
+  // learnt from its tracked joints. Missing joints (NaN) stay missing.
+  void apply(double t, Pose& pose) noexcept;
+  // The whole-hand tremor it subtracted from the last row (m), for tests.
+  const Eigen::Vector3d& last_hand_tremor() const noexcept { return last_hand_; }
+  // The tremor frequency it follows (Hz; 0: none yet) and its peak's prominence.
+  double frequency_hz() const noexcept { return freq_hz_; }
+  double prominence() const noexcept { return prominence_; }
+
+ private:
+  static constexpr int kChannels = 1 + kJointCount;  // the hand's mean, then each joint about it
+  struct HighPass {  // (s^2 / (s + w)^2)^2: removes constants, ramps and slow curves
+    double x = 0.0, v = 0.0, x2 = 0.0, v2 = 0.0;
+    void start(double s) noexcept { *this = {s, 0.0, 0.0, 0.0}; }
+    double step(double s, double dt, double w) noexcept;
+  };
+  void start_fit() noexcept;
+  // The spectrum's peak in the band (Hz; 0: none) and its prominence.
+  double peak_hz(double& prominence) const noexcept;
+
+  double t0_ = 0.0, last_t_ = 0.0;
+  int rows_ = 0;
+  double dt_mean_ = 0.0;
+  double fit_age_s_ = 0.0;                         // since the regressors' filter started
+  std::array<std::array<HighPass, 3>, kJointCount> sig_hp_{};
+  std::array<double, kJointCount> joint_age_s_{};  // since each joint's filter started (-1: missing)
+  // The hand's running spectrum: per bin and axis, sum lambda^k r e^{-i w t} (re, im).
+  std::array<std::array<std::array<double, 2>, 3>, kTremorBins> spec_{};
+  double freq_hz_ = 0.0;                           // the oscillator's frequency (0: none yet)
+  double prominence_ = 0.0;                        // ... its peak's prominence
+  double phase_ = 0.0;                             // ... and phase (rad)
+  std::array<HighPass, 2> reg_hp_{};               // the high-pass of its sin and cos
+  std::array<double, 2> u_{};                      // ... this row
+  // The weighted least squares: R = sum lambda^k u u^T (2 x 2), b per channel and axis.
+  double r00_ = 0.0, r01_ = 0.0, r11_ = 0.0;
+  std::array<std::array<std::array<double, 2>, 3>, kChannels> b_{};
+  std::array<std::array<double, 3>, kChannels> err2_{}, res2_{};  // a-priori error and residual power
+  std::array<double, kChannels> gate_{};
+  double rows_fit_ = 0.0;                          // sum lambda^k: rows in the fit's window
+  Eigen::Vector3d last_hand_ = Eigen::Vector3d::Zero();
+};
+
+}  // namespace hs

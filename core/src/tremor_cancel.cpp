@@ -1,0 +1,222 @@
+#include "handsteady/tremor_cancel.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+namespace hs {
+
+namespace {
+constexpr double kTwoPi = 2.0 * std::numbers::pi;
+constexpr double kClipAfterRows = 20.0;  // the error RMS is known well enough to clip with
+constexpr double kRidge = 1e-3;          // of the window's rows: keeps the 2 x 2 solve regular
+// The prominence's lower side of the band's lowest peak is in the spectrum.
+static_assert(kTremorMinHz - kTremorProminenceOffHz >= kTremorSpectrumLoHz);
+
+bool row_joint(const Pose& pose, int j) noexcept {
+  return std::isfinite(pose(j, 0)) && std::isfinite(pose(j, 1)) && std::isfinite(pose(j, 2));
+}
+}  // namespace
+
+// Two critically damped alpha-beta trackers in a row (Brown's double exponential smoothing
+// with discount exp(-w dt)); the second's innovation on the first's is the high-passed
+// signal. Time-varying with dt, but the same for the signal and the regressors, which is
+// all the fit needs.
+double TremorCancel::HighPass::step(double s, double dt, double w) noexcept {
+  const double theta = std::exp(-w * dt);
+  const double alpha = 1.0 - theta * theta, beta = (1.0 - theta) * (1.0 - theta);
+  const auto stage = [&](double in, double& px, double& pv) {
+    const double predicted = px + pv * dt;
+    const double e = in - predicted;
+    px = predicted + alpha * e;
+    pv += beta * e / dt;
+    return e;
+  };
+  const double e1 = stage(s, x, v);
+  return stage(e1, x2, v2);
+}
+
+void TremorCancel::reset() noexcept {
+  rows_ = 0;
+  t0_ = last_t_ = 0.0;
+  dt_mean_ = 0.0;
+  fit_age_s_ = 0.0;
+  joint_age_s_.fill(-1.0);
+  for (auto& bin : spec_)
+    for (auto& c : bin) c = {0.0, 0.0};
+  last_hand_.setZero();
+  start_fit();
+}
+
+void TremorCancel::start_fit() noexcept {
+  freq_hz_ = 0.0;
+  prominence_ = 0.0;
+  phase_ = 0.0;
+  r00_ = r01_ = r11_ = 0.0;
+  rows_fit_ = 0.0;
+  for (auto& c : b_)
+    for (auto& a : c) a = {0.0, 0.0};
+  for (auto& c : err2_) c.fill(0.0);
+  for (auto& c : res2_) c.fill(0.0);
+  gate_.fill(0.0);
+}
+
+double TremorCancel::peak_hz(double& prominence) const noexcept {
+  const double top = dt_mean_ > 0.0 ? kTremorNyquistShare / dt_mean_ : 0.0;
+  const auto power = [&](int k) {
+    double p = 0.0;
+    for (const auto& c : spec_[static_cast<size_t>(k)]) p += c[0] * c[0] + c[1] * c[1];
+    return p;
+  };
+  const auto hz = [](int k) { return kTremorSpectrumLoHz + kTremorStepHz * k; };
+  int best = -1;
+  double best_p = 0.0;
+  for (int k = 0; k < kTremorBins && hz(k) < std::min(top, kTremorMaxHz + 1e-9); ++k)
+    if (hz(k) >= kTremorMinHz - 1e-9)
+      if (const double p = power(k); p > best_p) best = k, best_p = p;
+  prominence = 0.0;
+  if (best < 0) return 0.0;
+  const int off = static_cast<int>(std::lround(kTremorProminenceOffHz / kTremorStepHz));
+  double side = power(best - off);
+  if (best + off < kTremorBins && hz(best + off) < top) side = std::max(side, power(best + off));
+  prominence = side > 0.0 ? best_p / side : 1e9;
+  double shift = 0.0;
+  if (best + 1 < kTremorBins && hz(best + 1) < top) {
+    const double a = power(best - 1), c = power(best + 1), den = a - 2.0 * best_p + c;
+    if (den < 0.0) shift = std::clamp(0.5 * (a - c) / den, -0.5, 0.5);
+  }
+  return hz(best) + kTremorStepHz * shift;
+}
+
+void TremorCancel::apply(double t, Pose& pose) noexcept {
+  const double dt = rows_ > 0 ? t - last_t_ : 0.0;
+  if (rows_ > 0 && !(dt > 0.0)) return;  // not after the last row: nothing to learn from
+  if (rows_ == 0) t0_ = t;
+  last_t_ = t;
+  ++rows_;
+  if (rows_ == 2) dt_mean_ = dt;
+  else if (rows_ > 2) dt_mean_ += 0.05 * (dt - dt_mean_);
+  const double tau = t - t0_;  // time from the first row, so that sin keeps its precision
+  const double w_hp = kTwoPi * kTremorHighPassHz;
+
+  // The joints' residuals; a joint's filter starts when it appears.
+  std::array<Eigen::Vector3d, kJointCount> r;
+  Eigen::Vector3d hand = Eigen::Vector3d::Zero();
+  int warm = 0;
+  std::array<bool, kJointCount> use{};
+  for (int j = 0; j < kJointCount; ++j) {
+    const size_t js = static_cast<size_t>(j);
+    if (!row_joint(pose, j)) {
+      joint_age_s_[js] = -1.0;
+      continue;
+    }
+    auto& hp = sig_hp_[js];
+    if (joint_age_s_[js] < 0.0 || rows_ == 1) {
+      for (int a = 0; a < 3; ++a) hp[static_cast<size_t>(a)].start(pose(j, a));
+      joint_age_s_[js] = 0.0;
+      continue;
+    }
+    for (int a = 0; a < 3; ++a) r[js](a) = hp[static_cast<size_t>(a)].step(pose(j, a), dt, w_hp);
+    joint_age_s_[js] += dt;
+    if (joint_age_s_[js] >= kTremorWarmS) {
+      use[js] = true;
+      hand += r[js];
+      ++warm;
+    }
+  }
+  last_hand_.setZero();
+  if (warm < kTremorMinJoints) return;
+  hand /= warm;
+
+  // The hand's running spectrum, and the oscillator at its peak.
+  const double ls = std::exp(-dt / kTremorSpectrumS);
+  for (int k = 0; k < kTremorBins; ++k) {
+    const double ph = kTwoPi * (kTremorSpectrumLoHz + kTremorStepHz * k) * tau;
+    const double c = std::cos(ph), sn = std::sin(ph);
+    for (int a = 0; a < 3; ++a) {
+      auto& z = spec_[static_cast<size_t>(k)][static_cast<size_t>(a)];
+      z[0] = ls * z[0] + hand(a) * c;
+      z[1] = ls * z[1] - hand(a) * sn;
+    }
+  }
+  if (freq_hz_ == 0.0) {  // the oscillator starts with the fit
+    freq_hz_ = peak_hz(prominence_);
+    if (freq_hz_ == 0.0) return;
+    for (int i = 0; i < 2; ++i) reg_hp_[static_cast<size_t>(i)].start(i == 0 ? std::sin(phase_) : std::cos(phase_));
+    fit_age_s_ = 0.0;
+    return;
+  }
+  phase_ = std::remainder(phase_ + kTwoPi * freq_hz_ * dt, kTwoPi);
+  const std::array<double, 2> x = {std::sin(phase_), std::cos(phase_)};
+  for (int i = 0; i < 2; ++i) u_[static_cast<size_t>(i)] = reg_hp_[static_cast<size_t>(i)].step(x[static_cast<size_t>(i)], dt, w_hp);
+  fit_age_s_ += dt;
+  if (const double f = peak_hz(prominence_); f > 0.0) freq_hz_ = f;
+  const double prom_gate = std::clamp((prominence_ - kTremorProminenceLo) / (kTremorProminenceHi - kTremorProminenceLo), 0.0, 1.0);
+  if (fit_age_s_ < kTremorWarmS) return;  // the regressors' filter settles
+
+  // Weights w = (R + ridge)^-1 b, 2 x 2.
+  const double lw = std::exp(-dt / kTremorMemoryS);
+  const auto weights = [&](const std::array<double, 2>& b) {
+    const double ridge = kRidge * rows_fit_;
+    const double a00 = r00_ + ridge, a11 = r11_ + ridge, det = a00 * a11 - r01_ * r01_;
+    if (!(det > 0.0)) return std::array<double, 2>{0.0, 0.0};
+    return std::array<double, 2>{(a11 * b[0] - r01_ * b[1]) / det, (a00 * b[1] - r01_ * b[0]) / det};
+  };
+  // Each channel's a-priori prediction of its residual (the weights before this row):
+  // its error against the residual's own power is the channel's gate; the error's RMS
+  // also clips what an outlier may teach.
+  const auto learn = [&](int c, const Eigen::Vector3d& res) {
+    const size_t cs = static_cast<size_t>(c);
+    double e2 = 0.0, r2 = 0.0;
+    for (int a = 0; a < 3; ++a) {
+      auto& b = b_[cs][static_cast<size_t>(a)];
+      const auto w = weights(b);
+      const double pred = w[0] * u_[0] + w[1] * u_[1];
+      double v = res(a);
+      double& err2 = err2_[cs][static_cast<size_t>(a)];
+      if (rows_fit_ > kClipAfterRows) {
+        const double rms = std::sqrt(err2 / rows_fit_);
+        v = std::clamp(v, pred - kTremorClip * rms, pred + kTremorClip * rms);
+      }
+      const double e = v - pred;
+      err2 = lw * err2 + e * e;
+      res2_[cs][static_cast<size_t>(a)] = lw * res2_[cs][static_cast<size_t>(a)] + v * v;
+      e2 += err2;
+      r2 += res2_[cs][static_cast<size_t>(a)];
+      b = {lw * b[0] + u_[0] * v, lw * b[1] + u_[1] * v};
+    }
+    gate_[cs] = r2 > 0.0 ? std::clamp((1.0 - e2 / r2) / kTremorGateSpan, 0.0, 1.0) : 0.0;
+  };
+  learn(0, hand);
+  for (int j = 0; j < kJointCount; ++j) {
+    const size_t cs = static_cast<size_t>(1 + j);
+    if (use[static_cast<size_t>(j)]) learn(1 + j, r[static_cast<size_t>(j)] - hand);
+    else  // a row without it: as if its residual were zero (R learns this row too)
+      for (auto& b : b_[cs]) b = {lw * b[0], lw * b[1]};
+  }
+  r00_ = lw * r00_ + u_[0] * u_[0];
+  r01_ = lw * r01_ + u_[0] * u_[1];
+  r11_ = lw * r11_ + u_[1] * u_[1];
+  rows_fit_ = lw * rows_fit_ + 1.0;
+
+  // Cancel: the tremor now, from the weights learnt so far.
+  const auto tremor_of = [&](int c) {
+    const size_t cs = static_cast<size_t>(c);
+    Eigen::Vector3d out = Eigen::Vector3d::Zero();
+    if (gate_[cs] <= 0.0) return out;
+    for (int a = 0; a < 3; ++a) {
+      const auto w = weights(b_[cs][static_cast<size_t>(a)]);
+      out(a) = prom_gate * gate_[cs] * (w[0] * x[0] + w[1] * x[1]);
+    }
+    return out;
+  };
+  last_hand_ = tremor_of(0);
+  for (int j = 0; j < kJointCount; ++j) {
+    if (!row_joint(pose, j)) continue;
+    Eigen::Vector3d d = last_hand_;
+    if (use[static_cast<size_t>(j)]) d += tremor_of(1 + j);
+    for (int a = 0; a < 3; ++a) pose(j, a) -= d(a);
+  }
+}
+
+}  // namespace hs
