@@ -30,10 +30,6 @@ namespace {
 using Vec3 = Eigen::Vector3d;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-bool joint_finite(const Pose& p, int j) {
-  return std::isfinite(p(j, 0)) && std::isfinite(p(j, 1)) && std::isfinite(p(j, 2));
-}
-
 // Shared bookkeeping: timestamp checks, per-joint time of last observation, gap expiry.
 // Derived supplies init_joint(j, x), update_joint(j, dt, x), predict_joint(j, dt) -> Vec3
 // (dt measured from the joint's last observation), on_frame(frame_dt) and clear_state().

@@ -84,7 +84,7 @@ class StgaeFilter final : public PoseFilter {
     last_t_ = t;
     bool any = false;
     for (int j = 0; j < n_; ++j) {
-      const bool ok = std::isfinite(observed(j, 0)) && std::isfinite(observed(j, 1)) && std::isfinite(observed(j, 2));
+      const bool ok = joint_finite(observed, j);
       for (int c = 0; c < 3; ++c) cur_[static_cast<size_t>(3 * j + c)] = ok ? static_cast<float>(observed(j, c)) : kNaN;
       if (ok) seen_t_[static_cast<size_t>(j)] = t;
       any = any || ok;

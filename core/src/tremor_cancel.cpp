@@ -12,10 +12,6 @@ constexpr double kClipAfterRows = 20.0;  // the error RMS is known well enough t
 constexpr double kRidge = 1e-3;          // of the window's rows: keeps the 2 x 2 solve regular
 // The prominence's lower side of the band's lowest peak is in the spectrum.
 static_assert(kTremorMinHz - kTremorProminenceOffHz >= kTremorSpectrumLoHz);
-
-bool row_joint(const Pose& pose, int j) noexcept {
-  return std::isfinite(pose(j, 0)) && std::isfinite(pose(j, 1)) && std::isfinite(pose(j, 2));
-}
 }  // namespace
 
 // Two critically damped alpha-beta trackers in a row (Brown's double exponential smoothing
@@ -44,13 +40,7 @@ void TremorCancel::reset() noexcept {
   joint_age_s_.fill(-1.0);
   for (auto& bin : spec_)
     for (auto& c : bin) c = {0.0, 0.0};
-  last_hand_.setZero();
-  start_fit();
-}
-
-void TremorCancel::start_fit() noexcept {
   freq_hz_ = 0.0;
-  prominence_ = 0.0;
   phase_ = 0.0;
   r00_ = r01_ = r11_ = 0.0;
   rows_fit_ = 0.0;
@@ -106,7 +96,7 @@ void TremorCancel::apply(double t, Pose& pose) noexcept {
   std::array<bool, kJointCount> use{};
   for (int j = 0; j < kJointCount; ++j) {
     const size_t js = static_cast<size_t>(j);
-    if (!row_joint(pose, j)) {
+    if (!joint_finite(pose, j)) {
       joint_age_s_[js] = -1.0;
       continue;
     }
@@ -124,23 +114,29 @@ void TremorCancel::apply(double t, Pose& pose) noexcept {
       ++warm;
     }
   }
-  last_hand_.setZero();
   if (warm < kTremorMinJoints) return;
   hand /= warm;
 
   // The hand's running spectrum, and the oscillator at its peak.
   const double ls = std::exp(-dt / kTremorSpectrumS);
+  // Each bin's phasor e^{i w_k tau}, from the first by rotation: two sin/cos pairs a row, not one a bin.
+  double pc = std::cos(kTwoPi * kTremorSpectrumLoHz * tau), ps = std::sin(kTwoPi * kTremorSpectrumLoHz * tau);
+  const double step_c = std::cos(kTwoPi * kTremorStepHz * tau), step_s = std::sin(kTwoPi * kTremorStepHz * tau);
   for (int k = 0; k < kTremorBins; ++k) {
-    const double ph = kTwoPi * (kTremorSpectrumLoHz + kTremorStepHz * k) * tau;
-    const double c = std::cos(ph), sn = std::sin(ph);
+    if (k > 0) {
+      const double rc = pc * step_c - ps * step_s;
+      ps = ps * step_c + pc * step_s;
+      pc = rc;
+    }
     for (int a = 0; a < 3; ++a) {
       auto& z = spec_[static_cast<size_t>(k)][static_cast<size_t>(a)];
-      z[0] = ls * z[0] + hand(a) * c;
-      z[1] = ls * z[1] - hand(a) * sn;
+      z[0] = ls * z[0] + hand(a) * pc;
+      z[1] = ls * z[1] - hand(a) * ps;
     }
   }
+  double prominence = 0.0;
   if (freq_hz_ == 0.0) {  // the oscillator starts with the fit
-    freq_hz_ = peak_hz(prominence_);
+    freq_hz_ = peak_hz(prominence);
     if (freq_hz_ == 0.0) return;
     for (int i = 0; i < 2; ++i) reg_hp_[static_cast<size_t>(i)].start(i == 0 ? std::sin(phase_) : std::cos(phase_));
     fit_age_s_ = 0.0;
@@ -150,8 +146,8 @@ void TremorCancel::apply(double t, Pose& pose) noexcept {
   const std::array<double, 2> x = {std::sin(phase_), std::cos(phase_)};
   for (int i = 0; i < 2; ++i) u_[static_cast<size_t>(i)] = reg_hp_[static_cast<size_t>(i)].step(x[static_cast<size_t>(i)], dt, w_hp);
   fit_age_s_ += dt;
-  if (const double f = peak_hz(prominence_); f > 0.0) freq_hz_ = f;
-  const double prom_gate = std::clamp((prominence_ - kTremorProminenceLo) / (kTremorProminenceHi - kTremorProminenceLo), 0.0, 1.0);
+  if (const double f = peak_hz(prominence); f > 0.0) freq_hz_ = f;
+  const double prom_gate = std::clamp((prominence - kTremorProminenceLo) / (kTremorProminenceHi - kTremorProminenceLo), 0.0, 1.0);
   if (fit_age_s_ < kTremorWarmS) return;  // the regressors' filter settles
 
   // Weights w = (R + ridge)^-1 b, 2 x 2.
@@ -210,10 +206,10 @@ void TremorCancel::apply(double t, Pose& pose) noexcept {
     }
     return out;
   };
-  last_hand_ = tremor_of(0);
+  const Eigen::Vector3d hand_tremor = tremor_of(0);
   for (int j = 0; j < kJointCount; ++j) {
-    if (!row_joint(pose, j)) continue;
-    Eigen::Vector3d d = last_hand_;
+    if (!joint_finite(pose, j)) continue;
+    Eigen::Vector3d d = hand_tremor;
     if (use[static_cast<size_t>(j)]) d += tremor_of(1 + j);
     for (int a = 0; a < 3; ++a) pose(j, a) -= d(a);
   }

@@ -30,6 +30,10 @@ std::optional<Hand> parse_hand(std::string_view s);
 using Pose = Eigen::Matrix<double, kJointCount, 3, Eigen::RowMajor>;
 Pose untracked_pose();
 inline bool joint_tracked(const Pose& p, int j) { return !std::isnan(p(j, 0)); }
+// All three coordinates finite (what filters accept as an observation of the joint).
+inline bool joint_finite(const Pose& p, int j) noexcept {
+  return std::isfinite(p(j, 0)) && std::isfinite(p(j, 1)) && std::isfinite(p(j, 2));
+}
 bool any_joint_tracked(const Pose& p);
 int tracked_joint_count(const Pose& p);
 

@@ -70,11 +70,8 @@ class TremorCancel {
   // Learns from the row at time t (after the last one) and subtracts the tremor it has
   // learnt from its tracked joints. Missing joints (NaN) stay missing.
   void apply(double t, Pose& pose) noexcept;
-  // The whole-hand tremor it subtracted from the last row (m), for tests.
-  const Eigen::Vector3d& last_hand_tremor() const noexcept { return last_hand_; }
-  // The tremor frequency it follows (Hz; 0: none yet) and its peak's prominence.
+  // The tremor frequency it follows (Hz; 0: none yet).
   double frequency_hz() const noexcept { return freq_hz_; }
-  double prominence() const noexcept { return prominence_; }
 
  private:
   static constexpr int kChannels = 1 + kJointCount;  // the hand's mean, then each joint about it
@@ -83,7 +80,6 @@ class TremorCancel {
     void start(double s) noexcept { *this = {s, 0.0, 0.0, 0.0}; }
     double step(double s, double dt, double w) noexcept;
   };
-  void start_fit() noexcept;
   // The spectrum's peak in the band (Hz; 0: none) and its prominence.
   double peak_hz(double& prominence) const noexcept;
 
@@ -96,7 +92,6 @@ class TremorCancel {
   // The hand's running spectrum: per bin and axis, sum lambda^k r e^{-i w t} (re, im).
   std::array<std::array<std::array<double, 2>, 3>, kTremorBins> spec_{};
   double freq_hz_ = 0.0;                           // the oscillator's frequency (0: none yet)
-  double prominence_ = 0.0;                        // ... its peak's prominence
   double phase_ = 0.0;                             // ... and phase (rad)
   std::array<HighPass, 2> reg_hp_{};               // the high-pass of its sin and cos
   std::array<double, 2> u_{};                      // ... this row
@@ -106,7 +101,6 @@ class TremorCancel {
   std::array<std::array<double, 3>, kChannels> err2_{}, res2_{};  // a-priori error and residual power
   std::array<double, kChannels> gate_{};
   double rows_fit_ = 0.0;                          // sum lambda^k: rows in the fit's window
-  Eigen::Vector3d last_hand_ = Eigen::Vector3d::Zero();
 };
 
 }  // namespace hs
