@@ -12,6 +12,8 @@
 # it (docs/FILTERS.md "Palm fit"; these were the `stgae` rows before 2026-11-24).
 # HS_FPHA_SMOOTHED=1 adds `stgae-smoothed`: the network's predictions smoothed over time
 # (opt-in; docs/STGAE.md "Prediction smoothing").
+# HS_FPHA_TREMOR=1 adds `stgae-tremor`: the network behind the palm fit and the tremor
+# canceller (opt-in; docs/FILTERS.md "Tremor canceller").
 # Usage: scripts/fpha_table.sh HANDSTEADY_BINARY SHARED_DATA_DIR OUT_DIR
 set -euo pipefail
 hs=$1; data=$2; out=$3
@@ -23,6 +25,13 @@ if $hs filter --method stgae --in "$out/clean.csv" --out "$out/probe.csv" >/dev/
 else
   echo "(no Multi-STGAE model found: its rows are left out)"
 fi
+# extra NAME OPTION...: a Multi-STGAE row with these `handsteady filter` options.
+extra() {
+  local m=$1; shift
+  $hs filter --in "$d/noisy.csv" --out "$d/$m.csv" --method stgae "$@" >/dev/null
+  $hs filter --in "$d/noisy.csv" --out "$d/${m}_h50.csv" --method stgae "$@" --horizon-ms 50 >/dev/null
+  den+=(--in "$m=$d/$m.csv"); pre+=(--in "$m=$d/${m}_h50.csv")
+}
 for preset in tracker paper tremor; do
   d="$out/$preset"
   mkdir -p "$d"
@@ -33,31 +42,12 @@ for preset in tracker paper tremor; do
     $hs filter --in "$d/noisy.csv" --out "$d/${m}_h50.csv" --method "$m" --horizon-ms 50 >/dev/null
     den+=(--in "$m=$d/$m.csv"); pre+=(--in "$m=$d/${m}_h50.csv")
   done
-  if [ "${HS_FPHA_UNBOUNDED:-0}" = 1 ] && [[ " ${methods[*]} " == *" stgae "* ]]; then
-    m=stgae-unbounded
-    $hs filter --in "$d/noisy.csv" --out "$d/$m.csv" --method stgae --unbounded >/dev/null
-    $hs filter --in "$d/noisy.csv" --out "$d/${m}_h50.csv" --method stgae --unbounded --horizon-ms 50 >/dev/null
-    den+=(--in "$m=$d/$m.csv"); pre+=(--in "$m=$d/${m}_h50.csv")
-  fi
-  if [ "${HS_FPHA_NOPALMFIT:-0}" = 1 ] && [[ " ${methods[*]} " == *" stgae "* ]]; then
-    m=stgae-nopalmfit
-    $hs filter --in "$d/noisy.csv" --out "$d/$m.csv" --method stgae --no-palm-fit >/dev/null
-    $hs filter --in "$d/noisy.csv" --out "$d/${m}_h50.csv" --method stgae --no-palm-fit --horizon-ms 50 >/dev/null
-    den+=(--in "$m=$d/$m.csv"); pre+=(--in "$m=$d/${m}_h50.csv")
-  fi
-  if [ "${HS_FPHA_SMOOTHED:-0}" = 1 ] && [[ " ${methods[*]} " == *" stgae "* ]]; then
-    m=stgae-smoothed
-    $hs filter --in "$d/noisy.csv" --out "$d/$m.csv" --method stgae --smooth-predictions >/dev/null
-    $hs filter --in "$d/noisy.csv" --out "$d/${m}_h50.csv" --method stgae --smooth-predictions --horizon-ms 50 >/dev/null
-    den+=(--in "$m=$d/$m.csv"); pre+=(--in "$m=$d/${m}_h50.csv")
-  fi
-  if [ -n "${HS_CENTRED_MODEL:-}" ]; then
-    m=stgae-centred-window
-    $hs filter --in "$d/noisy.csv" --out "$d/$m.csv" --method stgae --offline --model "$HS_CENTRED_MODEL" >/dev/null
-    $hs filter --in "$d/noisy.csv" --out "$d/${m}_h50.csv" --method stgae --offline --horizon-ms 50 \
-      --model "$HS_CENTRED_MODEL" >/dev/null
-    den+=(--in "$m=$d/$m.csv"); pre+=(--in "$m=$d/${m}_h50.csv")
-  fi
+  has_stgae=0; [[ " ${methods[*]} " == *" stgae "* ]] && has_stgae=1
+  [ "${HS_FPHA_UNBOUNDED:-0}" = 1 ] && [ $has_stgae = 1 ] && extra stgae-unbounded --unbounded
+  [ "${HS_FPHA_NOPALMFIT:-0}" = 1 ] && [ $has_stgae = 1 ] && extra stgae-nopalmfit --no-palm-fit
+  [ "${HS_FPHA_SMOOTHED:-0}" = 1 ] && [ $has_stgae = 1 ] && extra stgae-smoothed --smooth-predictions
+  [ "${HS_FPHA_TREMOR:-0}" = 1 ] && [ $has_stgae = 1 ] && extra stgae-tremor --tremor-cancel
+  [ -n "${HS_CENTRED_MODEL:-}" ] && extra stgae-centred-window --offline --model "$HS_CENTRED_MODEL"
   echo "#### \`$preset\` preset: denoising (H = 0)"
   $hs compare --truth "$out/clean.csv" "${den[@]}"
   echo

@@ -195,23 +195,37 @@ void TremorCancel::apply(double t, Pose& pose) noexcept {
   r11_ = lw * r11_ + u_[1] * u_[1];
   rows_fit_ = lw * rows_fit_ + 1.0;
 
-  // Cancel: the tremor now, from the weights learnt so far.
-  const auto tremor_of = [&](int c) {
+  // Cancel: the tremor now, from the weights learnt so far, each channel's part scaled by
+  // its gates; the amplitude gate from the largest joint's whole oscillation (hand + own).
+  std::array<std::array<std::array<double, 2>, 3>, kChannels> w{};
+  for (int c = 0; c < kChannels; ++c)
+    for (int a = 0; a < 3; ++a) w[static_cast<size_t>(c)][static_cast<size_t>(a)] = weights(b_[static_cast<size_t>(c)][static_cast<size_t>(a)]);
+  const auto part = [&](int c, int a, int i) {
     const size_t cs = static_cast<size_t>(c);
-    Eigen::Vector3d out = Eigen::Vector3d::Zero();
-    if (gate_[cs] <= 0.0) return out;
-    for (int a = 0; a < 3; ++a) {
-      const auto w = weights(b_[cs][static_cast<size_t>(a)]);
-      out(a) = prom_gate * gate_[cs] * (w[0] * x[0] + w[1] * x[1]);
-    }
-    return out;
+    return prom_gate * gate_[cs] * w[cs][static_cast<size_t>(a)][static_cast<size_t>(i)];
   };
-  const Eigen::Vector3d hand_tremor = tremor_of(0);
+  double amp2_max = 0.0;  // the oscillation's own size, before the other gates
   for (int j = 0; j < kJointCount; ++j) {
     if (!joint_finite(pose, j)) continue;
-    Eigen::Vector3d d = hand_tremor;
-    if (use[static_cast<size_t>(j)]) d += tremor_of(1 + j);
-    for (int a = 0; a < 3; ++a) pose(j, a) -= d(a);
+    const auto& wj = w[static_cast<size_t>(1 + j)];
+    double amp2 = 0.0;
+    for (int a = 0; a < 3; ++a)
+      for (int i = 0; i < 2; ++i) {
+        const double wi = w[0][static_cast<size_t>(a)][static_cast<size_t>(i)] +
+                          (use[static_cast<size_t>(j)] ? wj[static_cast<size_t>(a)][static_cast<size_t>(i)] : 0.0);
+        amp2 += wi * wi;
+      }
+    amp2_max = std::max(amp2_max, amp2);
+  }
+  const double amp_gate = std::clamp((kTremorAmplitudeOffM - std::sqrt(amp2_max)) / (kTremorAmplitudeOffM - kTremorAmplitudeFullM), 0.0, 1.0);
+  if (amp_gate <= 0.0) return;
+  for (int j = 0; j < kJointCount; ++j) {
+    if (!joint_finite(pose, j)) continue;
+    for (int a = 0; a < 3; ++a) {
+      double d = 0.0;
+      for (int i = 0; i < 2; ++i) d += (part(0, a, i) + (use[static_cast<size_t>(j)] ? part(1 + j, a, i) : 0.0)) * x[static_cast<size_t>(i)];
+      pose(j, a) -= amp_gate * d;
+    }
   }
 }
 

@@ -21,7 +21,7 @@
 // weights per axis, exponentially weighted least squares with a short memory
 // (kTremorMemoryS), so that phase and amplitude follow a wandering tremor.
 //
-// Only what is tremor-like is cancelled, by two gates:
+// Only what is tremor-like is cancelled, by three gates:
 // - prominence: tremor is a narrow, lasting peak; voluntary motion (handwriting strokes at
 //   3-6 Hz, gestures) spreads over the band and comes and goes. The peak's power over the
 //   larger of the powers kTremorProminenceOffHz either side (the spectrum reaches below the
@@ -31,6 +31,10 @@
 // - prediction: each channel's estimate is scaled by how much of its residual the weights
 //   predicted before they saw it (out of sample: 1 - error power / residual power, full at
 //   kTremorGateSpan), so white or correlated jitter and a still hand are left alone.
+// - amplitude: tremor is small; a deliberate rhythmic motion (a wave, a wagging finger, a
+//   shake) swings centimetres. Where the largest joint's oscillation exceeds
+//   kTremorAmplitudeFullM, the cancelling fades, to nothing at kTremorAmplitudeOffM, for
+//   the whole hand (cancelling only part of a swing would bend the hand).
 // Residuals beyond kTremorClip of that error's RMS (outliers, jumps) teach it no more than
 // that. Frequencies above kTremorNyquistShare of the input rate are not looked for.
 //
@@ -60,6 +64,8 @@ inline constexpr double kTremorHighPassHz = 2.0;       // the high-pass that kee
 inline constexpr double kTremorWarmS = 0.6;            // a residual is used this long after its filter starts
 inline constexpr double kTremorGateSpan = 0.3;         // prediction gain at which a channel counts fully
 inline constexpr double kTremorClip = 3.0;             // residuals clipped at this many RMS of the error
+inline constexpr double kTremorAmplitudeFullM = 0.015; // amplitude: cancelled fully up to this (m; 3 cm peak to peak)
+inline constexpr double kTremorAmplitudeOffM = 0.025;  // ... and not at all from this
 inline constexpr int kTremorMinJoints = 5;             // joints the hand's mean needs
 
 class TremorCancel {
