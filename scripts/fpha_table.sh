@@ -20,8 +20,9 @@ hs=$1; data=$2; out=$3
 mkdir -p "$out"
 $hs import --format fpha --in "$data/fpha/Subject_5" --out "$out/clean.csv" >/dev/null
 methods=(raw oneeuro desp kalman)
+has_stgae=0
 if $hs filter --method stgae --in "$out/clean.csv" --out "$out/probe.csv" >/dev/null 2>&1; then
-  methods+=(stgae)
+  methods+=(stgae); has_stgae=1
 else
   echo "(no Multi-STGAE model found: its rows are left out)"
 fi
@@ -42,7 +43,6 @@ for preset in tracker paper tremor; do
     $hs filter --in "$d/noisy.csv" --out "$d/${m}_h50.csv" --method "$m" --horizon-ms 50 >/dev/null
     den+=(--in "$m=$d/$m.csv"); pre+=(--in "$m=$d/${m}_h50.csv")
   done
-  has_stgae=0; [[ " ${methods[*]} " == *" stgae "* ]] && has_stgae=1
   [ "${HS_FPHA_UNBOUNDED:-0}" = 1 ] && [ $has_stgae = 1 ] && extra stgae-unbounded --unbounded
   [ "${HS_FPHA_NOPALMFIT:-0}" = 1 ] && [ $has_stgae = 1 ] && extra stgae-nopalmfit --no-palm-fit
   [ "${HS_FPHA_SMOOTHED:-0}" = 1 ] && [ $has_stgae = 1 ] && extra stgae-smoothed --smooth-predictions

@@ -195,25 +195,27 @@ void TremorCancel::apply(double t, Pose& pose) noexcept {
   r11_ = lw * r11_ + u_[1] * u_[1];
   rows_fit_ = lw * rows_fit_ + 1.0;
 
-  // Cancel: the tremor now, from the weights learnt so far, each channel's part scaled by
-  // its gates; the amplitude gate from the largest joint's whole oscillation (hand + own).
-  std::array<std::array<std::array<double, 2>, 3>, kChannels> w{};
-  for (int c = 0; c < kChannels; ++c)
-    for (int a = 0; a < 3; ++a) w[static_cast<size_t>(c)][static_cast<size_t>(a)] = weights(b_[static_cast<size_t>(c)][static_cast<size_t>(a)]);
-  const auto part = [&](int c, int a, int i) {
-    const size_t cs = static_cast<size_t>(c);
-    return prom_gate * gate_[cs] * w[cs][static_cast<size_t>(a)][static_cast<size_t>(i)];
+  // Cancel: the tremor now, from the weights learnt so far. Each channel's weights, and
+  // the part of them its gates let through; a joint's oscillation is the hand's plus its own.
+  using Weights = std::array<std::array<std::array<double, 2>, 3>, kChannels>;
+  Weights w{}, cancel{};
+  for (size_t c = 0; c < kChannels; ++c)
+    for (size_t a = 0; a < 3; ++a) {
+      w[c][a] = weights(b_[c][a]);
+      for (size_t i = 0; i < 2; ++i) cancel[c][a][i] = prom_gate * gate_[c] * w[c][a][i];
+    }
+  const auto of_joint = [&](const Weights& m, size_t j, size_t a, size_t i) {
+    return m[0][a][i] + (use[j] ? m[1 + j][a][i] : 0.0);
   };
-  double amp2_max = 0.0;  // the oscillation's own size, before the other gates
+  // The amplitude gate, from the largest joint's oscillation before the other gates.
+  double amp2_max = 0.0;
   for (int j = 0; j < kJointCount; ++j) {
     if (!joint_finite(pose, j)) continue;
-    const auto& wj = w[static_cast<size_t>(1 + j)];
     double amp2 = 0.0;
-    for (int a = 0; a < 3; ++a)
-      for (int i = 0; i < 2; ++i) {
-        const double wi = w[0][static_cast<size_t>(a)][static_cast<size_t>(i)] +
-                          (use[static_cast<size_t>(j)] ? wj[static_cast<size_t>(a)][static_cast<size_t>(i)] : 0.0);
-        amp2 += wi * wi;
+    for (size_t a = 0; a < 3; ++a)
+      for (size_t i = 0; i < 2; ++i) {
+        const double v = of_joint(w, static_cast<size_t>(j), a, i);
+        amp2 += v * v;
       }
     amp2_max = std::max(amp2_max, amp2);
   }
@@ -221,10 +223,10 @@ void TremorCancel::apply(double t, Pose& pose) noexcept {
   if (amp_gate <= 0.0) return;
   for (int j = 0; j < kJointCount; ++j) {
     if (!joint_finite(pose, j)) continue;
-    for (int a = 0; a < 3; ++a) {
-      double d = 0.0;
-      for (int i = 0; i < 2; ++i) d += (part(0, a, i) + (use[static_cast<size_t>(j)] ? part(1 + j, a, i) : 0.0)) * x[static_cast<size_t>(i)];
-      pose(j, a) -= amp_gate * d;
+    for (size_t a = 0; a < 3; ++a) {
+      const size_t js = static_cast<size_t>(j);
+      const double d = of_joint(cancel, js, a, 0) * x[0] + of_joint(cancel, js, a, 1) * x[1];
+      pose(j, static_cast<int>(a)) -= amp_gate * d;
     }
   }
 }
