@@ -80,7 +80,9 @@ const float* CorrectionBound::x_back(long back) const noexcept {
   return x_.data() + static_cast<size_t>((n_ - back) % hist_) * kFs;
 }
 
-void CorrectionBound::apply(std::span<const float> x, std::span<float> path) noexcept {
+void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std::span<const double> noise2,
+                            std::span<const double> jump) noexcept {
+  const bool measured = noise2.size() >= kJointCount && jump.size() >= kJointCount;
   const auto F = static_cast<size_t>(frames_);
   if (x.size() < kFs || path.size() < kFs * F) return;
   // The ring's slot for this frame: the input, and the network's displacements.
@@ -101,13 +103,13 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path) noe
     // The noise radius is the history's: this frame's own second difference only widens
     // the radius (an outlier is taken back) and does not yet count as noise.
     const double s = std::sqrt(rough_[ju]);  // RMS second difference
-    const double noise_r = kCorrectionNoiseFactor * s / std::sqrt(6.0);
+    const double noise_r = measured ? kMeasuredNoiseFactor * std::sqrt(noise2[ju]) : kCorrectionNoiseFactor * s / std::sqrt(6.0);
     double a = 0.0;  // |second difference| now, when the joint was seen in the two frames before
     if (have2) {
       a = (xn - 2.0 * load(x1) + load(x2)).norm();
       rough_[ju] += running_weight(count_[ju], kCorrectionRoughnessFrames) * (a * a - rough_[ju]);
     }
-    const double r = std::max(noise_r, a);
+    const double r = std::max(noise_r, measured ? jump[ju] : a);
     radius_[ju] = r;
     float* dj = path.data() + o;
     if (!finite_xyz(dj)) continue;

@@ -7,6 +7,7 @@
 // to one model period ahead (whose error shows as a jump at every model tick).
 #include "handsteady/correction_bound.hpp"
 #include "handsteady/correction_gain.hpp"
+#include "handsteady/input_noise.hpp"
 #include "handsteady/prediction_smoothing.hpp"
 #include "handsteady/stgae_engine.hpp"
 #include "handsteady/stgae_filter.hpp"
@@ -61,6 +62,7 @@ class StgaeFilter final : public PoseFilter {
   void reset() noexcept override {
     restart_grid();
     gain_.reset();
+    noise_.reset();
     intervals_seen_ = 0;
     mismatch_rows_ = 0;
     last_t_ = std::numeric_limits<double>::quiet_NaN();
@@ -90,6 +92,12 @@ class StgaeFilter final : public PoseFilter {
       any = any || ok;
     }
     if (!any) return false;  // hand lost in this frame: nothing to resample
+    if (have_grid_ && t - last_valid_t_ > kModelResetGapS) noise_.reset();
+    noise_.push(t, std::span<const float>(cur_.data(), cur_.size()));
+    for (int j = 0; j < n_; ++j) {
+      noise2_[static_cast<size_t>(j)] = noise_.noise2(j);
+      jump_[static_cast<size_t>(j)] = noise_.jump(j);
+    }
     // A tracking gap longer than kModelResetGapS: the history no longer describes the hand
     // (the sampling rate still does).
     if (have_grid_ && t - last_valid_t_ > kModelResetGapS) restart_grid();
@@ -314,7 +322,13 @@ class StgaeFilter final : public PoseFilter {
       const auto p = stream.predicted(i);
       std::copy(p.begin(), p.end(), o.path.begin() + static_cast<std::ptrdiff_t>((static_cast<size_t>(i) + 1) * p.size()));
     }
-    if (bounded_) bounds_[static_cast<size_t>(phase)].apply(frame, o.path);
+    if (bounded_) {
+      // Input faster than the model: its rows measure the noise apart from the motion
+      // (InputNoise); at the model's rate there is nothing finer than the stream's frames.
+      auto& bound = bounds_[static_cast<size_t>(phase)];
+      if (phases_ >= 2) bound.apply(frame, o.path, noise2_, jump_);
+      else bound.apply(frame, o.path);
+    }
     if (smoothed_) smoother_.apply(t, o.path);
     o.t = t;
     o.have = true;
@@ -335,6 +349,8 @@ class StgaeFilter final : public PoseFilter {
   bool smoothed_ = false;
   PredictionSmoother smoother_;  // one for all streams (smoothed_): their frames in time order
   CorrectionGain gain_;          // how much of the answer's correction to keep (gained_)
+  InputNoise noise_;             // the input's noise at the input rate, for the trust region
+  std::array<double, kJointCount> noise2_{}, jump_{};
   Pose ans_ = untracked_pose();  // the answer at the last row, before the gain
   int n_ = 0, dt_frames_ = 0, phases_ = 1, latest_ = -1, valid_rows_ = 0, mismatch_rows_ = 0;
   std::array<double, kRateWindow> intervals_{};  // ring of the last sample intervals (s)

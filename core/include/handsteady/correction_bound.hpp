@@ -23,6 +23,11 @@ namespace hs {
 // about kCorrectionBiasFrames frames, each step clipped to the noise radius, applied only
 // beyond two of their standard errors.
 inline constexpr double kCorrectionNoiseFactor = 3.0;
+// With the noise measured at the input rate (InputNoise: motion does not feed it, so it is
+// not inflated the way the stream's second difference is), radius = max(this factor times
+// the joint's RMS noise, the row's own jump). Chosen on the benchmark's tuning split
+// (docs/STGAE.md "Trust region": 3, 2, 1, 0.5, 0 gave 1.456, 1.444, 1.427, 1.418, 1.448 mm).
+inline constexpr double kMeasuredNoiseFactor = 1.0;
 inline constexpr double kCorrectionRoughnessFrames = 15.0;
 inline constexpr double kCorrectionBiasFrames = 30.0;
 
@@ -39,7 +44,12 @@ class CorrectionBound {
   //   its mean excess over the displacement the input then made (measured f frames later),
   //   then held within reach of constant velocity (x's last step) from the denoised one.
   // Joints missing in x are not bound.
-  void apply(std::span<const float> x, std::span<float> path) noexcept;
+  void apply(std::span<const float> x, std::span<float> path) noexcept { apply(x, path, {}, {}); }
+  // The same with the input's noise measured at the input rate (InputNoise): E|n|^2 per
+  // joint and this row's jump set the denoised frame's radius instead of this stream's
+  // second differences (empty spans: those).
+  void apply(std::span<const float> x, std::span<float> path, std::span<const double> noise2,
+             std::span<const double> jump) noexcept;
   int frames() const noexcept { return frames_; }
   // The radius of joint j after the last apply (m); infinity when it was not bound.
   double radius(int j) const noexcept { return radius_[static_cast<size_t>(j)]; }

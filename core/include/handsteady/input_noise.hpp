@@ -1,0 +1,42 @@
+#pragma once
+// The input's noise per joint, estimated at the input rate by two measures that the hand's
+// motion does not feed (the trust region's own estimate, the second difference of frames a
+// model period apart, takes fast motion for noise):
+// - smoothness: each row against the quadratic through the three rows before it, at their
+//   own times (the third difference on a regular grid); motion leaks into it only as its
+//   third derivative times the interval cubed, white noise in full;
+// - rigidity: each bone's length against its running mean; a hand's bones do not stretch
+//   however it moves, noise on either end of a bone does, correlated or not.
+// The estimate is the larger of the two: E|n|^2 of the joint, m^2. Per hand, per input row,
+// no allocation, noexcept. docs/STGAE.md "Trust region".
+#include "handsteady/skeleton.hpp"
+
+#include <array>
+#include <span>
+
+namespace hs {
+
+// Rows in the running means (squared residuals, bone lengths and their spread).
+inline constexpr double kInputNoiseRows = 30.0;
+
+class InputNoise {
+ public:
+  void reset() noexcept;
+  // Row x (3 * kJointCount, joint-major xyz, NaN = missing) at time t (increasing).
+  void push(double t, std::span<const float> x) noexcept;
+  // E|n|^2 of joint j (m^2), 0 before any evidence.
+  double noise2(int j) const noexcept;
+  // |row - the quadratic through the rows before| of joint j at the last row (m; 0 when
+  // the joint lacked three rows before): a jump of this row alone (an outlier).
+  double jump(int j) const noexcept { return jump_[static_cast<size_t>(j)]; }
+
+ private:
+  static constexpr size_t kFs = 3 * kJointCount;
+  std::array<std::array<float, kFs>, 3> rows_{};  // the last rows, newest first
+  std::array<double, 3> t_{};
+  int have_ = 0;                                  // rows in rows_
+  std::array<double, kJointCount> smooth2_{}, bone_mean_{}, bone_var_{}, jump_{};
+  std::array<int, kJointCount> smooth_n_{}, bone_n_{};
+};
+
+}  // namespace hs
