@@ -21,13 +21,6 @@ Eigen::Vector3d clamp_into(const Eigen::Vector3d& p, const Eigen::Vector3d& cent
   const double n = d.norm();
   return n > r ? Eigen::Vector3d(centre + d * (r / n)) : p;
 }
-// The weight of the next sample in a running mean over about `frames` samples: a plain
-// mean while fewer have been seen. Advances the count.
-double running_weight(int& count, double frames) noexcept {
-  const double w = std::max(1.0 / (count + 1), 1.0 / frames);
-  count = std::min(count + 1, 1 << 20);
-  return w;
-}
 // One step of a running mean towards `sample`, clipped to `step`. `spread2` follows half
 // the squared change between successive samples: their variance, blind to a constant or
 // slowly moving mean (so an offset not yet learnt does not count as spread). `last` is the

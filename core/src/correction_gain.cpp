@@ -9,12 +9,6 @@ namespace hs {
 
 namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
-// Lagrange weights of the quadratic through times t1, t2, t3, evaluated at t0.
-std::array<double, 3> back_weights(double t0, double t1, double t2, double t3) noexcept {
-  return {(t0 - t2) * (t0 - t3) / ((t1 - t2) * (t1 - t3)), (t0 - t1) * (t0 - t3) / ((t2 - t1) * (t2 - t3)),
-          (t0 - t1) * (t0 - t2) / ((t3 - t1) * (t3 - t2))};
-}
 }  // namespace
 
 void CorrectionGain::reset() noexcept {
@@ -94,7 +88,7 @@ void CorrectionGain::observe(double t, std::span<const float> x, std::span<const
     const Row& r1 = rows_[static_cast<size_t>((n_ - 2) % kRing)];
     const Row& r2 = rows_[static_cast<size_t>((n_ - 1) % kRing)];
     if (t - r0.t <= kGainMaxSpanS) {
-      const auto w = back_weights(r0.t, r1.t, r2.t, t);
+      const auto w = quadratic_weights(r0.t, r1.t, r2.t, t);
       double fr = 0.0, lr = 0.0, ff = 0.0, fl = 0.0, ll = 0.0;
       bool any = false;
       for (size_t o = 0; o < kFs; o += 3) {

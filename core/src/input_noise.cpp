@@ -10,16 +10,9 @@ namespace hs {
 
 namespace {
 Eigen::Vector3d at(const float* p) noexcept { return Eigen::Vector3f(p[0], p[1], p[2]).cast<double>(); }
-// The weight of the next sample in a running mean over about kInputNoiseRows samples (a
-// plain mean while fewer have been seen); advances the count.
 // The largest noise gain of an extrapolation still used: 1 + 3^2 + 3^2 + 1 = 20 on a
 // regular grid, 44 when the oldest interval is half the others.
 constexpr double kMaxGain2 = 200.0;
-double step_weight(int& n) noexcept {
-  const double w = std::max(1.0 / (n + 1), 1.0 / kInputNoiseRows);
-  n = std::min(n + 1, 1 << 20);
-  return w;
-}
 }  // namespace
 
 void InputNoise::reset() noexcept {
@@ -28,6 +21,7 @@ void InputNoise::reset() noexcept {
   bone_mean_.fill(0.0);
   bone_var_.fill(0.0);
   jump_.fill(0.0);
+  noise2_.fill(0.0);
   smooth_n_.fill(0);
   bone_n_.fill(0);
 }
@@ -40,9 +34,7 @@ void InputNoise::push(double t, std::span<const float> x) noexcept {
   double gain2 = 0.0;
   bool quad = have_ >= 3;
   if (quad) {
-    const double t1 = t_[0], t2 = t_[1], t3 = t_[2];
-    l = {(t - t2) * (t - t3) / ((t1 - t2) * (t1 - t3)), (t - t1) * (t - t3) / ((t2 - t1) * (t2 - t3)),
-         (t - t1) * (t - t2) / ((t3 - t1) * (t3 - t2))};
+    l = quadratic_weights(t, t_[0], t_[1], t_[2]);
     gain2 = 1.0 + l[0] * l[0] + l[1] * l[1] + l[2] * l[2];
     // Rows bunched together (a repeated timestamp nudged apart) make the extrapolation
     // meaningless: no smoothness sample from this row.
@@ -59,7 +51,7 @@ void InputNoise::push(double t, std::span<const float> x) noexcept {
       const Eigen::Vector3d r =
           p - l[0] * at(rows_[0].data() + o) - l[1] * at(rows_[1].data() + o) - l[2] * at(rows_[2].data() + o);
       jump_[ju] = r.norm();
-      smooth2_[ju] += step_weight(smooth_n_[ju]) * (r.squaredNorm() / gain2 - smooth2_[ju]);
+      smooth2_[ju] += running_weight(smooth_n_[ju], kInputNoiseRows) * (r.squaredNorm() / gain2 - smooth2_[ju]);
     }
     const int parent = kXrParent[ju];
     if (parent < 0) continue;
@@ -72,8 +64,11 @@ void InputNoise::push(double t, std::span<const float> x) noexcept {
       const double d = len - bone_mean_[ju];
       bone_var_[ju] += (1.0 / std::min<double>(bone_n_[ju], kInputNoiseRows)) * (d * d - bone_var_[ju]);
     }
-    bone_mean_[ju] += step_weight(bone_n_[ju]) * (len - bone_mean_[ju]);
+    bone_mean_[ju] += running_weight(bone_n_[ju], kInputNoiseRows) * (len - bone_mean_[ju]);
   }
+  // A bone's length varies by the noise of both ends along it: 2 sigma^2 per axis with
+  // sigma each; E|n|^2 = 3 sigma^2 = 1.5 times that variance.
+  for (size_t j = 0; j < kJointCount; ++j) noise2_[j] = std::max(smooth2_[j], 1.5 * bone_var_[j]);
   rows_[2] = rows_[1];
   rows_[1] = rows_[0];
   std::copy(x.begin(), x.begin() + static_cast<std::ptrdiff_t>(kFs), rows_[0].begin());
@@ -83,11 +78,5 @@ void InputNoise::push(double t, std::span<const float> x) noexcept {
   have_ = std::min(have_ + 1, 3);
 }
 
-double InputNoise::noise2(int j) const noexcept {
-  const auto ju = static_cast<size_t>(j);
-  // A bone's length varies by the noise of both ends along it: 2 sigma^2 per axis with
-  // sigma each; E|n|^2 = 3 sigma^2 = 1.5 times that variance.
-  return std::max(smooth2_[ju], 1.5 * bone_var_[ju]);
-}
 
 }  // namespace hs

@@ -92,15 +92,12 @@ class StgaeFilter final : public PoseFilter {
       any = any || ok;
     }
     if (!any) return false;  // hand lost in this frame: nothing to resample
-    if (have_grid_ && t - last_valid_t_ > kModelResetGapS) noise_.reset();
-    noise_.push(t, std::span<const float>(cur_.data(), cur_.size()));
-    for (int j = 0; j < n_; ++j) {
-      noise2_[static_cast<size_t>(j)] = noise_.noise2(j);
-      jump_[static_cast<size_t>(j)] = noise_.jump(j);
-    }
     // A tracking gap longer than kModelResetGapS: the history no longer describes the hand
     // (the sampling rate still does).
-    if (have_grid_ && t - last_valid_t_ > kModelResetGapS) restart_grid();
+    const bool gap = have_grid_ && t - last_valid_t_ > kModelResetGapS;
+    if (gap) noise_.reset();
+    noise_.push(t, std::span<const float>(cur_.data(), cur_.size()));
+    if (gap) restart_grid();
     else if (have_grid_) record_interval(t - last_valid_t_);
     last_valid_t_ = t;
     if (!have_grid_) {
@@ -326,7 +323,7 @@ class StgaeFilter final : public PoseFilter {
       // Input faster than the model: its rows measure the noise apart from the motion
       // (InputNoise); at the model's rate there is nothing finer than the stream's frames.
       auto& bound = bounds_[static_cast<size_t>(phase)];
-      if (phases_ >= 2) bound.apply(frame, o.path, noise2_, jump_);
+      if (phases_ >= 2) bound.apply(frame, o.path, noise_.noise2(), noise_.jumps());
       else bound.apply(frame, o.path);
     }
     if (smoothed_) smoother_.apply(t, o.path);
@@ -350,7 +347,6 @@ class StgaeFilter final : public PoseFilter {
   PredictionSmoother smoother_;  // one for all streams (smoothed_): their frames in time order
   CorrectionGain gain_;          // how much of the answer's correction to keep (gained_)
   InputNoise noise_;             // the input's noise at the input rate, for the trust region
-  std::array<double, kJointCount> noise2_{}, jump_{};
   Pose ans_ = untracked_pose();  // the answer at the last row, before the gain
   int n_ = 0, dt_frames_ = 0, phases_ = 1, latest_ = -1, valid_rows_ = 0, mismatch_rows_ = 0;
   std::array<double, kRateWindow> intervals_{};  // ring of the last sample intervals (s)

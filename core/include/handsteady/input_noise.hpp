@@ -25,17 +25,20 @@ class InputNoise {
   // Row x (3 * kJointCount, joint-major xyz, NaN = missing) at time t (increasing).
   void push(double t, std::span<const float> x) noexcept;
   // E|n|^2 of joint j (m^2), 0 before any evidence.
-  double noise2(int j) const noexcept;
+  double noise2(int j) const noexcept { return noise2_[static_cast<size_t>(j)]; }
   // |row - the quadratic through the rows before| of joint j at the last row (m; 0 when
   // the joint lacked three rows before): a jump of this row alone (an outlier).
   double jump(int j) const noexcept { return jump_[static_cast<size_t>(j)]; }
+  // Both for every joint (what CorrectionBound::apply takes).
+  std::span<const double> noise2() const noexcept { return noise2_; }
+  std::span<const double> jumps() const noexcept { return jump_; }
 
  private:
   static constexpr size_t kFs = 3 * kJointCount;
   std::array<std::array<float, kFs>, 3> rows_{};  // the last rows, newest first
   std::array<double, 3> t_{};
   int have_ = 0;                                  // rows in rows_
-  std::array<double, kJointCount> smooth2_{}, bone_mean_{}, bone_var_{}, jump_{};
+  std::array<double, kJointCount> smooth2_{}, bone_mean_{}, bone_var_{}, jump_{}, noise2_{};
   std::array<int, kJointCount> smooth_n_{}, bone_n_{};
 };
 

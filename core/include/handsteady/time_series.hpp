@@ -24,6 +24,21 @@ bool finite_xyz(const T* p) noexcept {
   return std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]);
 }
 
+// Lagrange weights of the quadratic through times t1, t2, t3, evaluated at t0 (distinct
+// times): a point extrapolated from three samples at their own times.
+inline std::array<double, 3> quadratic_weights(double t0, double t1, double t2, double t3) noexcept {
+  return {(t0 - t2) * (t0 - t3) / ((t1 - t2) * (t1 - t3)), (t0 - t1) * (t0 - t3) / ((t2 - t1) * (t2 - t3)),
+          (t0 - t1) * (t0 - t2) / ((t3 - t1) * (t3 - t2))};
+}
+
+// The weight of the next sample in a running mean over about `samples` samples: a plain
+// mean while fewer have been seen. Advances the count.
+inline double running_weight(int& count, double samples) noexcept {
+  const double w = std::max(1.0 / (count + 1), 1.0 / samples);
+  count = std::min(count + 1, 1 << 20);
+  return w;
+}
+
 // A grid tick up to this long after a sample counts as at it: recorded times are rounded
 // (1/30 s written to 9 decimals), and a tick a hair after its sample must be answered by
 // that sample, not by the next one (which would turn every answer into an extrapolation).
