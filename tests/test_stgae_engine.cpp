@@ -562,6 +562,8 @@ TEST_CASE("PoseFilter adapter: irregular times near the model rate lock the fram
   hs::Pose out;
   std::mt19937 rng(3);
   std::uniform_real_distribution<double> jitter(0.8, 1.2);
+  std::vector<double> intervals;
+  double prev_t = t;
   const auto expect_denoised = [&](const char* what) {
     CAPTURE(what);
     double worst = 0.0;
@@ -587,11 +589,20 @@ TEST_CASE("PoseFilter adapter: irregular times near the model rate lock the fram
     ref.push(frame(n));
     f->estimate(t, out);
     expect_denoised("each sample is a frame");
-    if (n == 20) {  // a sample 0.3 periods later: not a frame, the path at 0.3 periods
+    if (n > 0) intervals.push_back(t - prev_t);
+    prev_t = t;
+    if (n == 20) {  // a sample 0.3 periods later: not a frame, the path 0.3 periods on
       REQUIRE(f->push(t + 0.3 * dt, pose_at(src, 0)));
+      intervals.push_back(0.3 * dt);
       f->estimate(t + 0.3 * dt, out);
+      // The path's frames are the samples' median interval apart (the last 16).
+      std::vector<double> last(intervals.end() - 16, intervals.end());
+      std::nth_element(last.begin(), last.begin() + 8, last.end());
+      const double spacing = last[8];
+      CHECK(spacing > 0.85 * dt);
+      CHECK(spacing < 1.15 * dt);
       const auto d = static_cast<double>(ref.denoised()[5]);
-      CHECK(out(1, 2) == doctest::Approx(d + 0.3 * (static_cast<double>(ref.predicted(0)[5]) - d)).epsilon(1e-6));
+      CHECK(out(1, 2) == doctest::Approx(d + 0.3 * dt / spacing * (static_cast<double>(ref.predicted(0)[5]) - d)).epsilon(1e-6));
     }
   }
 }
@@ -654,4 +665,42 @@ TEST_CASE("PoseFilter adapter: input slower than the model within its trained sp
   };
   CHECK(answers_are_frames(1.3 * period) < 1e-6);
   CHECK(answers_are_frames(1.5 * period) > 1e-4);
+}
+
+TEST_CASE("PoseFilter adapter: a locked stream's predicted path is read at its own frame spacing") {
+  // The network predicts in frames. Locked at 1.3 or 0.8 model periods per sample (23 Hz
+  // or 37.5 Hz under a 30 Hz model), predicted frame i lies i sample intervals after the
+  // sample, not i model periods: read in model periods, a 50 ms answer at 23 Hz was the
+  // path 64 ms ahead.
+  const auto c = small_causal();
+  REQUIRE(c.horizon >= 2);
+  const auto model = small_model(c, 5);
+  const double period = 1.0 / c.rate_hz;
+  const int kRows = 4 + 3 * c.window + 12;
+  const auto src = hs::synthetic_hand_input(c, kRows, 49);
+  for (const double speed : {1.3, 0.8}) {
+    CAPTURE(speed);
+    const double step = speed * period;
+    auto f = hs::make_stgae_filter(model, 0.0, 1, false);
+    hs::StgaeStream<float> ref(model->net);
+    hs::Pose out;
+    double worst_mid = 0.0, worst_second = 0.0;
+    for (int n = 0; n < kRows; ++n) {
+      const double t = 1.0 + n * step;
+      REQUIRE(f->push(t, pose_at(src, n)));
+      ref.push(std::span<const float>(src.data() + static_cast<size_t>(n * 78), 78));
+      if (n < 4 + 3 * c.window) continue;  // locked once the rate is known
+      f->estimate(t + 0.5 * step, out);  // halfway to the first predicted frame
+      for (size_t i = 0; i < 78; ++i) {
+        const double mid = 0.5 * (static_cast<double>(ref.denoised()[i]) + static_cast<double>(ref.predicted(0)[i]));
+        worst_mid = std::max(worst_mid, std::abs(out(static_cast<int>(i / 3), static_cast<int>(i % 3)) - mid));
+      }
+      f->estimate(t + 2.0 * step, out);  // the second predicted frame
+      for (size_t i = 0; i < 78; ++i)
+        worst_second = std::max(worst_second, std::abs(out(static_cast<int>(i / 3), static_cast<int>(i % 3)) -
+                                                       static_cast<double>(ref.predicted(1)[i])));
+    }
+    CHECK(worst_mid < 1e-6);
+    CHECK(worst_second < 1e-6);
+  }
 }

@@ -112,6 +112,10 @@ class StgaeFilter final : public PoseFilter {
       return true;
     }
     if (locked_) {
+      // A locked stream's frames are K samples apart, not one model period: the network
+      // predicts in frames, so its path is read at that spacing (at 23.5 Hz under a 30 Hz
+      // model, reading it in model periods answered 50 ms with the frame 64 ms ahead).
+      frame_period_ = std::clamp(phases_ * median_interval(), kLockMin * period_, kLockMax * period_);
       push_locked(t);
     } else {
       // Every sub-grid tick in (prev_t_, t] gets the linearly interpolated frame. Ticks are
@@ -166,7 +170,7 @@ class StgaeFilter final : public PoseFilter {
 
   // The value of coordinate i on a stream's path at time tq.
   double path_at(const PhaseOutput& p, double tq, int coord) const noexcept {
-    const double s = (tq - p.t) / period_;  // model periods after its denoised frame
+    const double s = (tq - p.t) / frame_period_;  // stream frames after its denoised frame
     const auto fs = static_cast<size_t>(3 * n_);
     const auto i = static_cast<size_t>(coord);
     if (dt_frames_ > 0) {
@@ -259,6 +263,7 @@ class StgaeFilter final : public PoseFilter {
     phases_ = m.phases;
     sub_period_ = period_ / phases_;
     locked_ = m.locked;
+    frame_period_ = period_;
   }
 
   // A grid from sample t. With the rate known (a restart after a gap, or a new rate), in
@@ -269,6 +274,7 @@ class StgaeFilter final : public PoseFilter {
     phases_ = fixed_phases_ > 0 ? fixed_phases_ : 1;
     sub_period_ = period_ / phases_;
     locked_ = false;
+    frame_period_ = period_;
     valid_rows_ = 1;
     mismatch_rows_ = 0;
     if (intervals_seen_ >= kRateRows - 1) {
@@ -352,6 +358,7 @@ class StgaeFilter final : public PoseFilter {
   std::array<double, kRateWindow> intervals_{};  // ring of the last sample intervals (s)
   long intervals_seen_ = 0;
   double period_ = 1.0 / 30.0, sub_period_ = 1.0 / 30.0;
+  double frame_period_ = 1.0 / 30.0;  // time between a stream's frames: period_, or K intervals when locked
   std::vector<float> prev_, cur_, interp_;
   std::array<double, kJointCount> seen_t_{};
   bool have_grid_ = false, locked_ = false;
