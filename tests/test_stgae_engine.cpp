@@ -665,6 +665,9 @@ TEST_CASE("PoseFilter adapter: input slower than the model within its trained sp
   };
   CHECK(answers_are_frames(1.3 * period) < 1e-6);
   CHECK(answers_are_frames(1.5 * period) > 1e-4);
+  // 42 Hz: one stream at 0.71 periods (two would be 1.43), between the bands of K = 1 and
+  // K = 2 at the trained speeds; a frame's motion is a slower hand's, so it locks as well.
+  CHECK(answers_are_frames(0.71 * period) < 1e-6);
 }
 
 TEST_CASE("PoseFilter adapter: a locked stream's predicted path is read at its own frame spacing") {

@@ -195,10 +195,12 @@ class StgaeFilter final : public PoseFilter {
   static constexpr int kRateWindow = 16;
   static constexpr int kRateStreak = 8;
   static constexpr double kOlderPhaseWeight = 0.5;
-  // Sample intervals of 0.75-1.34 sub-periods lock: the speed factors the shipped models
-  // were trained on (0.75, 1, 1.33), so a locked stream sees frames the model has seen;
-  // 22-40 Hz, 45-80 Hz, 67-120 Hz and 90-160 Hz under a 30 Hz model.
-  static constexpr double kLockMin = 0.75, kLockMax = 1.34;
+  // Sample intervals of 0.66-1.34 sub-periods lock. The top is the fastest speed factor the
+  // shipped models were trained on (1.33; locking 20 Hz, 1.5, made a synthetic hand's 50 ms
+  // answers twice as far off). Below 1 a frame's motion is that of a slower hand, which
+  // the model handles: 0.66 is the least K = round(rate ratio) leaves, so 40-45 Hz (0.67-
+  // 0.75, between the K = 1 and K = 2 bands) locks too, and every rate of 22-180 Hz does.
+  static constexpr double kLockMin = 0.66, kLockMax = 1.34;
 
   // How the adapter frames input of one sampling interval.
   struct RateMode {
