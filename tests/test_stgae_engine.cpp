@@ -638,22 +638,36 @@ TEST_CASE("PoseFilter adapter: the input rate is watched, not only guessed from 
   CHECK((a - o).cwiseAbs().maxCoeff() > 1e-4);
 }
 
-TEST_CASE("PoseFilter adapter: input slower than the model within its trained speeds locks too") {
+TEST_CASE("PoseFilter adapter: input slower than the model locks too, its intervals split into frames in the band") {
   // 23 Hz under a 30 Hz model (a HoloLens 2 log): frames 1.3 periods apart are what a
-  // model trained at speed factor 1.33 has seen, so each sample is a frame at its own time;
-  // 20 Hz (1.5 periods) stays on the model's grid.
+  // model trained at speed factor 1.33 has seen, so each sample is a frame at its own time.
+  // 42 Hz: one stream at 0.71 periods (two would be 1.43), between the bands of K = 1 and
+  // K = 2; a frame's motion is a slower hand's, so it locks as well. 20 Hz (1.5 periods)
+  // and 12 Hz (2.5): each interval is split into 2 frames, the last at the sample, so the
+  // stream sees frames 0.75 and 1.25 periods apart and a sample is still answered by a frame
+  // at its own time (on the grid it was answered from a tick up to a period before).
   const auto c = small_causal();
   const auto model = small_model(c, 11);
   const double period = 1.0 / c.rate_hz;
   const int kRows = 4 + 3 * c.window + 12;
   const auto src = hs::synthetic_hand_input(c, kRows, 47);
-  const auto answers_are_frames = [&](double step) {
+  const auto answers_are_frames = [&](double step, int split) {
     auto f = hs::make_stgae_filter(model, 0.0, 0, false);
     hs::StgaeStream<float> ref(model->net);
     hs::Pose out;
+    std::vector<float> mid(78);
     double worst = 0.0;
     for (int n = 0; n < kRows; ++n) {
       REQUIRE(f->push(1.0 + n * step, pose_at(src, n)));
+      for (int k = 1; n > 0 && k < split; ++k) {
+        const double a = static_cast<double>(k) / split;
+        for (size_t i = 0; i < 78; ++i) {
+          const auto x0 = static_cast<double>(src[static_cast<size_t>((n - 1) * 78) + i]);
+          const auto x1 = static_cast<double>(src[static_cast<size_t>(n * 78) + i]);
+          mid[i] = static_cast<float>(x0 + a * (x1 - x0));
+        }
+        ref.push(std::span<const float>(mid));
+      }
       ref.push(std::span<const float>(src.data() + static_cast<size_t>(n * 78), 78));
       f->estimate(1.0 + n * step, out);
       if (n < 4 + 3 * c.window) continue;  // the first rows run on the grid until the rate is known, and are remembered a while
@@ -663,11 +677,11 @@ TEST_CASE("PoseFilter adapter: input slower than the model within its trained sp
     }
     return worst;
   };
-  CHECK(answers_are_frames(1.3 * period) < 1e-6);
-  CHECK(answers_are_frames(1.5 * period) > 1e-4);
-  // 42 Hz: one stream at 0.71 periods (two would be 1.43), between the bands of K = 1 and
-  // K = 2 at the trained speeds; a frame's motion is a slower hand's, so it locks as well.
-  CHECK(answers_are_frames(0.71 * period) < 1e-6);
+  CHECK(answers_are_frames(1.3 * period, 1) < 1e-6);
+  CHECK(answers_are_frames(0.71 * period, 1) < 1e-6);
+  CHECK(answers_are_frames(1.5 * period, 2) < 1e-6);
+  CHECK(answers_are_frames(2.5 * period, 2) < 1e-6);
+  CHECK(answers_are_frames(1.5 * period, 1) > 1e-4);  // the check can fail: unsplit frames differ
 }
 
 TEST_CASE("PoseFilter adapter: a locked stream's predicted path is read at its own frame spacing") {

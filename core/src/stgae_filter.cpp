@@ -115,7 +115,9 @@ class StgaeFilter final : public PoseFilter {
       // A locked stream's frames are K samples apart, not one model period: the network
       // predicts in frames, so its path is read at that spacing (at 23.5 Hz under a 30 Hz
       // model, reading it in model periods answered 50 ms with the frame 64 ms ahead).
-      frame_period_ = std::clamp(phases_ * median_interval(), kLockMin * period_, kLockMax * period_);
+      const double median = median_interval();
+      lock_spacing_ = split_ > 1 ? median / split_ : sub_period_;
+      frame_period_ = std::clamp(phases_ * median / split_, kLockMin * period_, kLockMax * period_);
       push_locked(t);
     } else {
       // Every sub-grid tick in (prev_t_, t] gets the linearly interpolated frame. Ticks are
@@ -206,6 +208,7 @@ class StgaeFilter final : public PoseFilter {
   struct RateMode {
     int phases = 1;
     bool locked = false;
+    int split = 1;  // locked frames per sample interval (input slower than the band)
     bool operator==(const RateMode&) const = default;
   };
 
@@ -218,7 +221,7 @@ class StgaeFilter final : public PoseFilter {
   // answered from the path, not framed.
   void push_locked(double t) noexcept {
     const double f0 = frame_t_, d = t - f0;
-    const long n = std::lround(d / sub_period_);
+    const long n = std::lround(d / lock_spacing_);
     if (n < 1) return;
     for (long k = 1; k <= n; ++k) {
       const double tick = k == n ? t : f0 + static_cast<double>(k) * d / static_cast<double>(n);
@@ -254,7 +257,11 @@ class StgaeFilter final : public PoseFilter {
     m.phases = fixed_phases_ > 0 ? fixed_phases_
                                  : std::clamp(static_cast<int>(std::lround(std::min(period_ / dt, 100.0))), 1, kStgaeMaxPhases);
     const double r = dt * m.phases / period_;
-    m.locked = r >= kLockMin && r <= kLockMax;
+    // Input slower than the band (under 22 Hz): each interval split into frames in the band,
+    // the last at the sample, so a sample is still answered by a frame at its own time
+    // instead of from a grid tick up to a period before it.
+    if (m.phases == 1 && r > kLockMax) m.split = static_cast<int>(std::ceil(std::min(r, 100.0) / kLockMax));
+    m.locked = r / m.split >= kLockMin && r / m.split <= kLockMax;
     return m;
   }
 
@@ -265,6 +272,8 @@ class StgaeFilter final : public PoseFilter {
     phases_ = m.phases;
     sub_period_ = period_ / phases_;
     locked_ = m.locked;
+    split_ = m.split;
+    lock_spacing_ = sub_period_;
     frame_period_ = period_;
   }
 
@@ -276,6 +285,8 @@ class StgaeFilter final : public PoseFilter {
     phases_ = fixed_phases_ > 0 ? fixed_phases_ : 1;
     sub_period_ = period_ / phases_;
     locked_ = false;
+    split_ = 1;
+    lock_spacing_ = sub_period_;
     frame_period_ = period_;
     valid_rows_ = 1;
     mismatch_rows_ = 0;
@@ -305,11 +316,19 @@ class StgaeFilter final : public PoseFilter {
   }
 
   // Whether a full window of intervals has asked for another mode kRateStreak rows in a row.
+  // A locked mode that only splits its intervals differently is taken up without a restart:
+  // the streams keep their history (a log near 22 Hz, 1.34 periods, crosses that edge often).
   bool rate_changed() noexcept {
     if (intervals_seen_ < kRateWindow) return false;
     const RateMode want = mode_for(median_interval());
-    mismatch_rows_ = want == RateMode{phases_, locked_} ? 0 : mismatch_rows_ + 1;
-    return mismatch_rows_ >= kRateStreak;
+    mismatch_rows_ = want == RateMode{phases_, locked_, split_} ? 0 : mismatch_rows_ + 1;
+    if (mismatch_rows_ < kRateStreak) return false;
+    if (want.locked && locked_ && want.phases == phases_) {
+      split_ = want.split;
+      mismatch_rows_ = 0;
+      return false;
+    }
+    return true;
   }
 
   void push_frame(int phase, const std::vector<float>& frame, double t) noexcept {
@@ -361,6 +380,8 @@ class StgaeFilter final : public PoseFilter {
   long intervals_seen_ = 0;
   double period_ = 1.0 / 30.0, sub_period_ = 1.0 / 30.0;
   double frame_period_ = 1.0 / 30.0;  // time between a stream's frames: period_, or K intervals when locked
+  double lock_spacing_ = 1.0 / 30.0;  // locked: the nominal time between frames (sub_period_, or an interval / split_)
+  int split_ = 1;
   std::vector<float> prev_, cur_, interp_;
   std::array<double, kJointCount> seen_t_{};
   bool have_grid_ = false, locked_ = false;
