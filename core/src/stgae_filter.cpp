@@ -112,9 +112,10 @@ class StgaeFilter final : public PoseFilter {
       return true;
     }
     if (locked_) {
-      // A locked stream's frames are K samples apart, not one model period: the network
-      // predicts in frames, so its path is read at that spacing (at 23.5 Hz under a 30 Hz
-      // model, reading it in model periods answered 50 ms with the frame 64 ms ahead).
+      // A locked stream's frames are K samples apart (an interval / split_ when split), not
+      // one model period: the network predicts in frames, so its path is read at that
+      // spacing (at 23.5 Hz under a 30 Hz model, reading it in model periods answered 50 ms
+      // with the frame 64 ms ahead).
       const double median = median_interval();
       lock_spacing_ = split_ > 1 ? median / split_ : sub_period_;
       frame_period_ = std::clamp(phases_ * median / split_, kLockMin * period_, kLockMax * period_);
@@ -201,7 +202,8 @@ class StgaeFilter final : public PoseFilter {
   // shipped models were trained on (1.33; locking 20 Hz, 1.5, made a synthetic hand's 50 ms
   // answers twice as far off). Below 1 a frame's motion is that of a slower hand, which
   // the model handles: 0.66 is the least K = round(rate ratio) leaves, so 40-45 Hz (0.67-
-  // 0.75, between the K = 1 and K = 2 bands) locks too, and every rate of 22-180 Hz does.
+  // 0.75, between the K = 1 and K = 2 bands) locks too. With slower input split (mode_for),
+  // every rate up to 182 Hz locks.
   static constexpr double kLockMin = 0.66, kLockMax = 1.34;
 
   // How the adapter frames input of one sampling interval.
