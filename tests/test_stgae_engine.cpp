@@ -684,6 +684,38 @@ TEST_CASE("PoseFilter adapter: input slower than the model locks too, its interv
   CHECK(answers_are_frames(1.5 * period, 1) > 1e-4);  // the check can fail: unsplit frames differ
 }
 
+TEST_CASE("PoseFilter adapter: at a rate on the edge between two modes, irregular times keep the running mode") {
+  // 45 Hz under a 30 Hz model: one stream at 0.67 periods or two at 1.33 both lock. With
+  // times +-20 % the median interval wanders across the edge; the running mode is kept
+  // while it still locks (each switch would restart the streams), so every sample after
+  // the first rows stays a frame of one stream.
+  const auto c = small_causal();
+  const auto model = small_model(c, 13);
+  const double period = 1.0 / c.rate_hz;
+  constexpr int kRows = 400;
+  const auto src = hs::synthetic_hand_input(c, kRows, 53);
+  auto f = hs::make_stgae_filter(model, 0.0, 0, false);
+  hs::StgaeStream<float> ref(model->net);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> jitter(0.8, 1.2);
+  hs::Pose out;
+  double t = 1.0, worst = 0.0;
+  int below_edge = 0;  // intervals that alone would ask for two streams
+  for (int n = 0; n < kRows; ++n) {
+    const double step = n < 4 ? 0.72 * period : jitter(rng) * period / 1.5;
+    if (n > 0) t += step;
+    if (n >= 4 && step < period / 1.5) ++below_edge;
+    REQUIRE(f->push(t, pose_at(src, n)));
+    ref.push(std::span<const float>(src.data() + static_cast<size_t>(n * 78), 78));
+    f->estimate(t, out);
+    if (n < 4 + 3 * c.window) continue;
+    for (size_t i = 0; i < 78; ++i)
+      worst = std::max(worst, std::abs(out(static_cast<int>(i / 3), static_cast<int>(i % 3)) - static_cast<double>(ref.denoised()[i])));
+  }
+  CHECK(below_edge > kRows / 3);  // the edge is crossed, often
+  CHECK(worst < 1e-6);
+}
+
 TEST_CASE("PoseFilter adapter: a locked stream's predicted path is read at its own frame spacing") {
   // The network predicts in frames. Locked at 1.3 or 0.8 model periods per sample (23 Hz
   // or 37.5 Hz under a 30 Hz model), predicted frame i lies i sample intervals after the

@@ -117,7 +117,7 @@ class StgaeFilter final : public PoseFilter {
       // spacing (at 23.5 Hz under a 30 Hz model, reading it in model periods answered 50 ms
       // with the frame 64 ms ahead).
       const double median = median_interval();
-      lock_spacing_ = split_ > 1 ? median / split_ : sub_period_;
+      lock_spacing_ = median / split_;
       frame_period_ = std::clamp(phases_ * median / split_, kLockMin * period_, kLockMax * period_);
       push_locked(t);
     } else {
@@ -198,13 +198,14 @@ class StgaeFilter final : public PoseFilter {
   static constexpr int kRateWindow = 16;
   static constexpr int kRateStreak = 8;
   static constexpr double kOlderPhaseWeight = 0.5;
-  // Sample intervals of 0.66-1.34 sub-periods lock. The top is the fastest speed factor the
+  // Sample intervals of 0.6-1.34 sub-periods lock. The top is the fastest speed factor the
   // shipped models were trained on (1.33; locking 20 Hz, 1.5, made a synthetic hand's 50 ms
   // answers twice as far off). Below 1 a frame's motion is that of a slower hand, which
-  // the model handles: 0.66 is the least K = round(rate ratio) leaves, so 40-45 Hz (0.67-
-  // 0.75, between the K = 1 and K = 2 bands) locks too. With slower input split (mode_for),
-  // every rate up to 182 Hz locks.
-  static constexpr double kLockMin = 0.66, kLockMax = 1.34;
+  // the model handles: under 0.67, the least K = round(rate ratio) leaves, so that 40-45 Hz
+  // (0.67-0.75, between the K = 1 and K = 2 bands) locks too, and a mode running at 45 Hz
+  // (one stream at 0.67 periods) stays locked while irregular times move its median
+  // (rate_changed). With slower input split (mode_for), every rate up to 200 Hz locks.
+  static constexpr double kLockMin = 0.6, kLockMax = 1.34;
 
   // How the adapter frames input of one sampling interval.
   struct RateMode {
@@ -318,12 +319,18 @@ class StgaeFilter final : public PoseFilter {
   }
 
   // Whether a full window of intervals has asked for another mode kRateStreak rows in a row.
-  // A locked mode that only splits its intervals differently is taken up without a restart:
-  // the streams keep their history (a log near 22 Hz, 1.34 periods, crosses that edge often).
+  // A locked mode is kept while the median still locks in it: at a rate between two modes
+  // (75 Hz: two streams at 0.8 periods or three at 1.2) irregular times would otherwise
+  // flip the mode, and each flip restarts the streams. A locked mode that only
+  // splits its intervals differently is taken up without a restart: the streams keep their
+  // history (a log near 22 Hz, 1.34 periods, crosses that edge often).
   bool rate_changed() noexcept {
     if (intervals_seen_ < kRateWindow) return false;
-    const RateMode want = mode_for(median_interval());
-    mismatch_rows_ = want == RateMode{phases_, locked_, split_} ? 0 : mismatch_rows_ + 1;
+    const double median = median_interval();
+    const double r = median * phases_ / (period_ * split_);
+    const bool still_locks = locked_ && r >= kLockMin && r <= kLockMax;
+    const RateMode want = mode_for(median);
+    mismatch_rows_ = still_locks || want == RateMode{phases_, locked_, split_} ? 0 : mismatch_rows_ + 1;
     if (mismatch_rows_ < kRateStreak) return false;
     if (want.locked && locked_ && want.phases == phases_) {
       split_ = want.split;
