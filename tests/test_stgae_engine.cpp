@@ -387,6 +387,13 @@ hs::Pose pose_at(const std::vector<float>& v, int t) {
     for (int k = 0; k < 3; ++k) p(j, k) = static_cast<double>(v[static_cast<size_t>((t * hs::kJointCount + j) * 3 + k)]);
   return p;
 }
+// The largest coordinate difference between an answer and a stream's frame.
+double pose_diff(const hs::Pose& out, std::span<const float> frame) {
+  double worst = 0.0;
+  for (size_t i = 0; i < frame.size(); ++i)
+    worst = std::max(worst, std::abs(out(static_cast<int>(i / 3), static_cast<int>(i % 3)) - static_cast<double>(frame[i])));
+  return worst;
+}
 }  // namespace
 
 // The adapter tests below run unbounded (no trust region, correction_bound.hpp): they check
@@ -566,10 +573,7 @@ TEST_CASE("PoseFilter adapter: irregular times near the model rate lock the fram
   double prev_t = t;
   const auto expect_denoised = [&](const char* what) {
     CAPTURE(what);
-    double worst = 0.0;
-    for (size_t i = 0; i < 78; ++i)
-      worst = std::max(worst, std::abs(out(static_cast<int>(i / 3), static_cast<int>(i % 3)) - static_cast<double>(ref.denoised()[i])));
-    CHECK(worst < 1e-6);
+    CHECK(pose_diff(out, ref.denoised()) < 1e-6);
   };
   for (int n = 0; n < kRows; ++n) {
     CAPTURE(n);
@@ -671,9 +675,7 @@ TEST_CASE("PoseFilter adapter: input slower than the model locks too, its interv
       ref.push(std::span<const float>(src.data() + static_cast<size_t>(n * 78), 78));
       f->estimate(1.0 + n * step, out);
       if (n < 4 + 3 * c.window) continue;  // the first rows run on the grid until the rate is known, and are remembered a while
-      for (size_t i = 0; i < 78; ++i)
-        worst = std::max(worst, std::abs(out(static_cast<int>(i / 3), static_cast<int>(i % 3)) -
-                                         static_cast<double>(ref.denoised()[i])));
+      worst = std::max(worst, pose_diff(out, ref.denoised()));
     }
     return worst;
   };
@@ -709,8 +711,7 @@ TEST_CASE("PoseFilter adapter: at a rate on the edge between two modes, irregula
     ref.push(std::span<const float>(src.data() + static_cast<size_t>(n * 78), 78));
     f->estimate(t, out);
     if (n < 4 + 3 * c.window) continue;
-    for (size_t i = 0; i < 78; ++i)
-      worst = std::max(worst, std::abs(out(static_cast<int>(i / 3), static_cast<int>(i % 3)) - static_cast<double>(ref.denoised()[i])));
+    worst = std::max(worst, pose_diff(out, ref.denoised()));
   }
   CHECK(below_edge > kRows / 3);  // the edge is crossed, often
   CHECK(worst < 1e-6);
@@ -745,9 +746,7 @@ TEST_CASE("PoseFilter adapter: a locked stream's predicted path is read at its o
         worst_mid = std::max(worst_mid, std::abs(out(static_cast<int>(i / 3), static_cast<int>(i % 3)) - mid));
       }
       f->estimate(t + 2.0 * step, out);  // the second predicted frame
-      for (size_t i = 0; i < 78; ++i)
-        worst_second = std::max(worst_second, std::abs(out(static_cast<int>(i / 3), static_cast<int>(i % 3)) -
-                                                       static_cast<double>(ref.predicted(1)[i])));
+      worst_second = std::max(worst_second, pose_diff(out, ref.predicted(1)));
     }
     CHECK(worst_mid < 1e-6);
     CHECK(worst_second < 1e-6);
