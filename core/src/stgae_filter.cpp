@@ -389,7 +389,7 @@ class StgaeFilter final : public PoseFilter {
   long intervals_seen_ = 0;
   double period_ = 1.0 / 30.0, sub_period_ = 1.0 / 30.0;
   double frame_period_ = 1.0 / 30.0;  // time between a stream's frames: period_, or K intervals when locked
-  double lock_spacing_ = 1.0 / 30.0;  // locked: the nominal time between frames (sub_period_, or an interval / split_)
+  double lock_spacing_ = 1.0 / 30.0;  // locked: the nominal time between frames, the median interval / split_
   int split_ = 1;
   std::vector<float> prev_, cur_, interp_;
   std::array<double, kJointCount> seen_t_{};
