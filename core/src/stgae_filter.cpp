@@ -104,9 +104,10 @@ class StgaeFilter final : public PoseFilter {
       start_grid(t);
       return true;
     }
+    const double median = median_interval();  // once a row: the mode, the rate watch, the lock spacing
     if (valid_rows_ < kRateRows) {
-      if (++valid_rows_ == kRateRows) choose_mode(mode_for(median_interval()));
-    } else if (rate_changed()) {  // the runtime's rate is not what the first rows said: start over
+      if (++valid_rows_ == kRateRows) choose_mode(mode_for(median));
+    } else if (rate_changed(median)) {  // the runtime's rate is not what the first rows said: start over
       restart_grid();
       start_grid(t);
       return true;
@@ -116,7 +117,6 @@ class StgaeFilter final : public PoseFilter {
       // one model period: the network predicts in frames, so its path is read at that
       // spacing (at 23.5 Hz under a 30 Hz model, reading it in model periods answered 50 ms
       // with the frame 64 ms ahead).
-      const double median = median_interval();
       lock_spacing_ = median / split_;
       frame_period_ = std::clamp(phases_ * median / split_, kLockMin * period_, kLockMax * period_);
       push_locked(t);
@@ -318,15 +318,14 @@ class StgaeFilter final : public PoseFilter {
     return *mid;
   }
 
-  // Whether a full window of intervals has asked for another mode kRateStreak rows in a row.
+  // Whether a full window of intervals (median: theirs) has asked for another mode kRateStreak rows in a row.
   // A locked mode is kept while the median still locks in it: at a rate between two modes
   // (75 Hz: two streams at 0.8 periods or three at 1.2) irregular times would otherwise
   // flip the mode, and each flip restarts the streams. A locked mode that only
   // splits its intervals differently is taken up without a restart: the streams keep their
   // history (a log near 22 Hz, 1.34 periods, crosses that edge often).
-  bool rate_changed() noexcept {
+  bool rate_changed(double median) noexcept {
     if (intervals_seen_ < kRateWindow) return false;
-    const double median = median_interval();
     const double r = median * phases_ / (period_ * split_);
     const bool still_locks = locked_ && r >= kLockMin && r <= kLockMax;
     const RateMode want = mode_for(median);

@@ -275,6 +275,7 @@ TrainConfig config_from_object(const json& j, const std::string& source, std::st
   tr.get("grad_clip", c.grad_clip);
   tr.get("threads", c.threads);
   tr.get("freeze_graph_epochs", c.freeze_graph_epochs);
+  tr.get("init", c.init);
   tr.finish();
   if (c.freeze_graph_epochs < 0) config_error(source, "train.freeze_graph_epochs", "must be >= 0");
   if (c.freeze_graph_epochs > 0 && c.model.family != StgaeFamily::Dgn)

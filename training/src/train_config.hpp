@@ -62,6 +62,10 @@ struct TrainConfig {
   // DGN: the incidence matrices S, T stay at their initial values for these first epochs
   // (the first stage of the published three-stage schedule).
   int freeze_graph_epochs = 0;
+  // A model file (.hsm, relative to the working directory) whose weights the network starts
+  // from instead of random ones (fine-tuning); its network configuration must equal
+  // `model`. Empty: random. A resumed run takes its weights from the checkpoint instead.
+  std::string init;
   LossWeights loss;
   // Training-loss weights from an epoch on ("loss.stages"); validation always uses `loss`,
   // so that validation losses stay comparable across stages.

@@ -477,6 +477,19 @@ TrainResult train_stgae(const TrainConfig& cfg, const TrainOptions& opt, std::os
   int best_epoch = -1;
   bool best_joint = false;  // the phase `best` was measured in
   const auto ckpt = std::filesystem::path(opt.out.string() + ".ckpt");
+  if (!c.init.empty() && !opt.resume) {
+    // Fine-tuning: the same network, its weights (BatchNorm statistics included) from a
+    // model file; Adam starts afresh.
+    const auto m = load_hsm(c.init, true);
+    StgaeConfig a = m->config, b = c.model;
+    a.meta_json.clear();
+    b.meta_json.clear();
+    if (to_json(a) != to_json(b))
+      throw InputError(SourceLocation{c.init, 0, "config"},
+                       "train.init: the model's network configuration differs from the config's \"model\"");
+    import_weights(*net, m->weights);
+    log << "initialised from " << c.init << "\n";
+  }
   if (opt.resume) {
     torch::serialize::InputArchive ar;
     try {

@@ -522,6 +522,41 @@ TEST_CASE("two tiny epochs on synthetic motion: the loss decreases, the model fi
   TrainConfig other = config;
   other.model.encoder_channels = {6, 10, 12};
   CHECK_THROWS_AS(train_stgae(other, opt, log2), InputError);
+
+  // Fine-tuning (train.init): at a learning rate that hardly moves a weight, one epoch
+  // started from the trained model validates like it; started from random weights, not.
+  {
+    TrainConfig ft = config;
+    ft.epochs = 1;
+    ft.lr = {{0, 1e-7}};
+    TrainOptions o;
+    o.progress = false;
+    o.out = dir / "random.hsm";
+    std::ostringstream l;
+    const TrainResult rr = train_stgae(ft, o, l);
+    ft.init = out.string();
+    o.out = dir / "finetuned.hsm";
+    const TrainResult rf = train_stgae(ft, o, l);
+    INFO(l.str());
+    CHECK(l.str().find("initialised from " + out.string()) != std::string::npos);
+    REQUIRE(rf.epochs.size() == 1);
+    REQUIRE(rr.epochs.size() == 1);
+    CHECK(rf.epochs[0].val_loss < r.epochs[0].val_loss);
+    CHECK(rf.epochs[0].val_loss < 0.8 * rr.epochs[0].val_loss);
+    // A model of another architecture is refused, naming the file.
+    TrainConfig bad = other;
+    bad.init = out.string();
+    bad.epochs = 1;
+    o.out = dir / "bad.hsm";
+    std::string msg;
+    try {
+      (void)train_stgae(bad, o, l);
+    } catch (const InputError& e) {
+      msg = e.what();
+    }
+    CHECK(msg.find(out.string()) != std::string::npos);
+    CHECK(msg.find("train.init") != std::string::npos);
+  }
   std::filesystem::remove_all(dir);
 }
 
