@@ -276,7 +276,10 @@ TrainConfig config_from_object(const json& j, const std::string& source, std::st
   tr.get("threads", c.threads);
   tr.get("freeze_graph_epochs", c.freeze_graph_epochs);
   tr.get("init", c.init);
+  tr.get("freeze", c.freeze);
   tr.finish();
+  for (const auto& f : c.freeze)
+    if (f.empty()) config_error(source, "train.freeze", "a prefix must not be empty");
   if (c.freeze_graph_epochs < 0) config_error(source, "train.freeze_graph_epochs", "must be >= 0");
   if (c.freeze_graph_epochs > 0 && c.model.family != StgaeFamily::Dgn)
     config_error(source, "train.freeze_graph_epochs", "applies to the dgn family only");

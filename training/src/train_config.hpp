@@ -66,6 +66,10 @@ struct TrainConfig {
   // from instead of random ones (fine-tuning); its network configuration must equal
   // `model`. Empty: random. A resumed run takes its weights from the checkpoint instead.
   std::string init;
+  // Parameters whose names (the .hsm tensor names, e.g. "enc.0.gcn.conv.weight") start
+  // with one of these prefixes are not trained, and their BatchNorm statistics are not
+  // updated: {"enc", "pre"} trains the denoising decoder alone. Each must name some.
+  std::vector<std::string> freeze;
   LossWeights loss;
   // Training-loss weights from an epoch on ("loss.stages"); validation always uses `loss`,
   // so that validation losses stay comparable across stages.

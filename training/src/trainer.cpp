@@ -465,6 +465,24 @@ TrainResult train_stgae(const TrainConfig& cfg, const TrainOptions& opt, std::os
   for (const auto& p : net->parameters()) n_params += static_cast<size_t>(p.numel());
   log << "model: " << n_params << " parameters, " << (c.model.padding == StgaePadding::Causal ? "causal" : "centred")
       << ", T " << T << ", DT " << DT << ", training sequences of " << L << " frames, threads " << torch::get_num_threads() << "\n";
+  // Frozen parameters (train.freeze) get no gradient, and their modules stay in eval mode
+  // below so that their BatchNorm statistics stay as they were.
+  const auto frozen = [&](const std::string& name) {
+    return std::any_of(c.freeze.begin(), c.freeze.end(), [&](const std::string& f) { return name.starts_with(f); });
+  };
+  for (const auto& f : c.freeze) {
+    size_t hits = 0;
+    for (const auto& p : net->named_parameters(true))
+      if (p.key().starts_with(f)) ++hits;
+    if (hits == 0) throw InputError(SourceLocation{"", 0, "train.freeze"}, "no parameter starts with \"" + f + "\"");
+  }
+  size_t n_frozen = 0;
+  for (auto& p : net->named_parameters(true))
+    if (frozen(p.key())) {
+      p.value().set_requires_grad(false);
+      n_frozen += static_cast<size_t>(p.value().numel());
+    }
+  if (n_frozen > 0) log << "frozen: " << n_frozen << " of " << n_params << " parameters\n";
   torch::optim::Adam adam(net->parameters(), torch::optim::AdamOptions(learning_rate(c, 0)));
   const LossFn loss(c.model, c.loss);  // validation: the base weights, whatever the stage
   // DGN: the incidence matrices S, T, whose gradients the first stage zeroes.
@@ -532,6 +550,9 @@ TrainResult train_stgae(const TrainConfig& cfg, const TrainOptions& opt, std::os
     const double lr = learning_rate(c, epoch);
     for (auto& g : adam.param_groups()) static_cast<torch::optim::AdamOptions&>(g.options()).lr(lr);
     net->train();
+    if (n_frozen > 0)
+      for (const auto& m : net->named_modules("", false))
+        if (frozen(m.key())) m.value()->eval();
     ProgressBar bar(opt.progress,
                     "epoch " + std::to_string(epoch + 1) + "/" + std::to_string(c.epochs) + (joint ? " [joint]" : " [denoise]"),
                     steps, std::isfinite(mean_epoch_s) ? mean_epoch_s * (c.epochs - epoch - 1) : std::numeric_limits<double>::quiet_NaN());

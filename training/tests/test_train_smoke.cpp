@@ -556,6 +556,37 @@ TEST_CASE("two tiny epochs on synthetic motion: the loss decreases, the model fi
     }
     CHECK(msg.find(out.string()) != std::string::npos);
     CHECK(msg.find("train.init") != std::string::npos);
+
+    // Frozen parts (train.freeze): the encoder and the prediction decoder keep every
+    // value, BatchNorm statistics included; the denoising decoder trains.
+    ft.lr = {{0, 0.003}};
+    ft.freeze = {"enc", "pre"};
+    o.out = dir / "den_only.hsm";
+    std::ostringstream lf;
+    (void)train_stgae(ft, o, lf);
+    INFO(lf.str());
+    const auto before = load_hsm(out, true), after = load_hsm(o.out, true);
+    int same = 0, changed = 0;
+    for (const auto& [name, t] : before->weights.tensors) {
+      const bool eq = t.data == after->weights.at(name).data;
+      if (name.starts_with("enc") || name.starts_with("pre")) {
+        CHECK_MESSAGE(eq, name);
+        same += eq ? 1 : 0;
+      } else {
+        changed += eq ? 0 : 1;
+      }
+    }
+    CHECK(same > 10);
+    CHECK(changed > 3);
+    ft.freeze = {"enc", "decoder"};
+    msg.clear();
+    try {
+      (void)train_stgae(ft, o, lf);
+    } catch (const InputError& e) {
+      msg = e.what();
+    }
+    CHECK(msg.find("train.freeze") != std::string::npos);
+    CHECK(msg.find("decoder") != std::string::npos);
   }
   std::filesystem::remove_all(dir);
 }
