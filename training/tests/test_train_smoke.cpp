@@ -325,6 +325,10 @@ TEST_CASE("training config errors name the key") {
   CHECK(error_field(R"({"model": {}, "loss": {"stages": [{"epoch": 0, "bone": -1}]}})") == "loss.stages[0].bone");
   CHECK(error_field(R"({"model": {}, "loss": {"stages": [{"epoch": 3}, {"epoch": 3}]}})") == "loss.stages[1].epoch");
   CHECK(error_field(R"({"model": {}, "loss": {"stages": [{"bone": 1}]}})") == "loss.stages[0]");
+  // Fine-tuning keys.
+  CHECK(error_field(R"({"model": {}, "train": {"init": 3}})") == "train.init");
+  CHECK(error_field(R"({"model": {}, "train": {"freeze": "enc"}})") == "train.freeze");
+  CHECK(error_field(R"({"model": {}, "train": {"freeze": ["enc", ""]}})") == "train.freeze");
   const auto c = parse_train_config(R"({"model": {}, "train": {"lr": [[0, 0.01], [5, 0.001]]}})");
   CHECK(learning_rate(c, 4) == 0.01);
   CHECK(learning_rate(c, 5) == 0.001);
