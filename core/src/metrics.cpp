@@ -106,25 +106,46 @@ struct CrossCorrelation {
   explicit CrossCorrelation(int lag) : max_lag(lag), c(static_cast<size_t>(2 * lag + 1)) {}
 };
 
-std::vector<Pose> velocities(std::span<const Pose> s) {
-  std::vector<Pose> v;
-  for (size_t f = 0; f + 1 < s.size(); ++f) v.push_back(s[f + 1] - s[f]);  // NaN where either is missing
-  return v;
+// Velocities flattened, frame after frame: 3 * kJointCount values per frame, zero where
+// the joint is missing in either frame, and 1/0 per joint for whether it is there.
+struct Velocities {
+  long n = 0;
+  std::vector<double> v, valid;
+};
+Velocities velocities(std::span<const Pose> s) {
+  Velocities out;
+  out.n = s.empty() ? 0 : static_cast<long>(s.size()) - 1;
+  out.v.assign(static_cast<size_t>(out.n) * 3 * kJointCount, 0.0);
+  out.valid.assign(static_cast<size_t>(out.n) * kJointCount, 0.0);
+  for (long f = 0; f < out.n; ++f) {
+    const Pose d = s[static_cast<size_t>(f) + 1] - s[static_cast<size_t>(f)];  // NaN where either is missing
+    for (int j = 0; j < kJointCount; ++j) {
+      if (std::isnan(d(j, 0))) continue;
+      out.valid[static_cast<size_t>(f * kJointCount + j)] = 1.0;
+      for (int k = 0; k < 3; ++k) out.v[static_cast<size_t>((f * kJointCount + j) * 3 + k)] = d(j, k);
+    }
+  }
+  return out;
 }
 
+// C(tau) pools the products of the joints present at t in the truth and at t + tau in the
+// estimate. With the missing ones zeroed, its sum over t is one dot product of the two
+// flattened sequences offset by tau frames (and its count one of the presence flags), so
+// each lag costs a single vectorised pass.
 void accumulate_xcorr(std::span<const Pose> truth, std::span<const Pose> est, CrossCorrelation& xc) {
-  const std::vector<Pose> vt = velocities(truth), ve = velocities(est);
-  const long n = static_cast<long>(vt.size());
+  const Velocities vt = velocities(truth), ve = velocities(est);
+  const long n = vt.n;
+  using Seq = Eigen::Map<const Eigen::VectorXd>;
+  constexpr long kV = 3 * kJointCount;
   for (int tau = -xc.max_lag; tau <= xc.max_lag; ++tau) {
+    const long t0 = std::max(0L, -static_cast<long>(tau)), t1 = std::min(n, n - static_cast<long>(tau));
+    if (t1 <= t0) continue;
+    const long len = t1 - t0, u0 = t0 + tau;
     Mean& m = xc.c[static_cast<size_t>(tau + xc.max_lag)];
-    for (long t = std::max(0L, -static_cast<long>(tau)); t < n && t + tau < n; ++t) {
-      const Pose& a = vt[static_cast<size_t>(t)];
-      const Pose& b = ve[static_cast<size_t>(t + tau)];
-      for (int j = 0; j < kJointCount; ++j) {
-        if (std::isnan(a(j, 0)) || std::isnan(b(j, 0))) continue;
-        for (int k = 0; k < 3; ++k) m.add(a(j, k) * b(j, k));
-      }
-    }
+    m.sum += Seq(vt.v.data() + t0 * kV, len * kV).dot(Seq(ve.v.data() + u0 * kV, len * kV));
+    const double pairs = Seq(vt.valid.data() + t0 * kJointCount, len * kJointCount)
+                             .dot(Seq(ve.valid.data() + u0 * kJointCount, len * kJointCount));
+    m.n += 3 * static_cast<size_t>(std::llround(pairs));
   }
 }
 
