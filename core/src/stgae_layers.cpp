@@ -13,17 +13,6 @@ namespace hs::stgae {
 namespace {
 
 constexpr int K = kSubsets;
-// Softmax of each column (column v of a transposed score = row v of the score).
-template <class S>
-void softmax_columns(Mat<S>& m) noexcept {
-  for (Eigen::Index v = 0; v < m.cols(); ++v) {
-    auto col = m.col(v);
-    const S mx = col.maxCoeff();
-    col = (col.array() - mx).exp().matrix();
-    col /= col.sum();
-  }
-}
-
 // Window-mode time mean of frame t's window from per-frame items (one column per frame).
 // Returns false when the mean of frame t is the one already computed (whole-window means).
 template <class S>
@@ -71,12 +60,35 @@ template <class S>
 BlockLayer<S>::BlockLayer(const StgaeConfig& c, const StgaeNode& node, const StgaeWeights& w) : node_(node) {
   check_node_tensors(node, w);
   const std::string& p = node.prefix;
-  const int N = c.joint_count(), cin = node.c_in;
+  const int N = c.joint_count(), cin = node.c_in, cout = node.c_out;
   n_ = N;
   T_ = c.window;
   d_ = std::max(1, cin / 2);
-  fold_conv(w, p + "gcn.conv.", p + "gcn.bn.", wg_, bg_);
+  att_ = c.attention == StgaeAttention::ABC;
+  gat_ = att_ && c.c_variant == StgaeCVariant::Gat;
+  const bool dot = att_ && !gat_;
+  Mat<S> wg, wr;
+  RVec<S> bg;
+  fold_conv(w, p + "gcn.conv.", p + "gcn.bn.", wg, bg);
+  fold_conv(w, p + "res.conv.", p + "res.bn.", wr, br_);
+  off_r_ = Eigen::Index(K) * cout;
+  off_q_ = off_r_ + cout;
+  off_k_ = off_q_ + Eigen::Index(K) * d_;
+  wx_.resize(cin, dot ? off_k_ + Eigen::Index(K) * d_ : off_q_);
+  bg_.resize(off_r_);
+  for (int k = 0; k < K; ++k)
+    for (int ch = 0; ch < cout; ++ch) {  // the file's column k*cout + ch -> ch*K + k
+      wx_.col(Eigen::Index(ch) * K + k) = wg.col(Eigen::Index(k) * cout + ch);
+      bg_(Eigen::Index(ch) * K + k) = bg(Eigen::Index(k) * cout + ch);
+    }
+  wx_.middleCols(off_r_, cout) = wr;
+  if (dot) {  // 1/sqrt(d) of the score folded into the query
+    wx_.middleCols(off_q_, Eigen::Index(K) * d_) =
+        (transposed<double>(w.at(p + "att.q.weight")) / std::sqrt(static_cast<double>(d_))).cast<S>();
+    wx_.middleCols(off_k_, Eigen::Index(K) * d_) = transposed<S>(w.at(p + "att.k.weight"));
+  }
   const GraphPartition gp = hand_partition(skeleton_by_name(c.skeleton));
+  abt_.resize(N, Eigen::Index(K) * N);
   for (int k = 0; k < K; ++k) {
     Eigen::MatrixXd m = gp.A[static_cast<size_t>(k)];
     if (c.attention != StgaeAttention::A) {
@@ -84,77 +96,73 @@ BlockLayer<S>::BlockLayer(const StgaeConfig& c, const StgaeNode& node, const Stg
       for (int v = 0; v < N; ++v)
         for (int u = 0; u < N; ++u) m(v, u) += static_cast<double>(B[static_cast<size_t>((k * N + v) * N + u)]);
     }
-    abt_[static_cast<size_t>(k)] = m.transpose().cast<S>();
+    abt_.middleCols(Eigen::Index(k) * N, N) = m.transpose().cast<S>();
   }
-  att_ = c.attention == StgaeAttention::ABC;
-  gat_ = att_ && c.c_variant == StgaeCVariant::Gat;
-  inv_sqrt_d_ = static_cast<S>(1.0 / std::sqrt(static_cast<double>(d_)));
-  if (att_ && !gat_) {
-    wq_ = transposed<S>(w.at(p + "att.q.weight"));
-    wk_ = transposed<S>(w.at(p + "att.k.weight"));
-  } else if (gat_) {
+  if (gat_) {
     wemb_ = transposed<S>(w.at(p + "att.emb.weight"));
     a_ = transposed<S>(w.at(p + "att.a"));  // [K, 2d] -> 2d x K
   }
   fold_temporal_conv(w, p + "tcn.conv.", p + "tcn.bn.", wt_, bt_);
-  fold_conv(w, p + "res.conv.", p + "res.bn.", wr_, br_);
 }
 
 template <class S>
 void BlockLayer<S>::size_attention(Attention& a) const {
-  if (att_ && !gat_) {
-    a.q.resize(n_, K * d_);
-    a.k.resize(n_, K * d_);
-  }
   if (gat_) {
     a.e.resize(n_, K * d_);
     a.u1.resize(n_);
     a.u2.resize(n_);
   }
-  for (auto& m : a.mt) m.resize(n_, n_);
+  a.colmax.resize(Eigen::Index(K) * n_);
+  a.colsum.resize(Eigen::Index(K) * n_);
+  a.mt.resize(n_, Eigen::Index(K) * n_);
 }
 
-// The per-frame item whose mean over W(t) the attention needs, written to out (items()).
+// The per-frame item whose mean over W(t) the attention needs, written to out (items()),
+// from one frame's input x and its product xw.
 template <class S>
-template <class D>
-void BlockLayer<S>::attention_items(const Eigen::MatrixBase<D>& x, Attention& a, S* out) const noexcept {
+template <class DX, class DW>
+void BlockLayer<S>::attention_items(const Eigen::MatrixBase<DX>& x, const Eigen::MatrixBase<DW>& xw,
+                                    S* out) const noexcept {
   const int n = n_;
   if (gat_) {
     Eigen::Map<Mat<S>>(out, n, node_.c_in) = x;
     return;
   }
-  a.q.noalias() = x * wq_;
-  a.k.noalias() = x * wk_;
-  for (int k = 0; k < K; ++k)  // transposed score: (k_w . q_v) at (w, v)
+  for (int k = 0; k < K; ++k)  // transposed score: (k_w . q_v) / sqrt(d) at (w, v)
     Eigen::Map<Mat<S>>(out + Eigen::Index(k) * n * n, n, n).noalias() =
-        a.k.middleCols(k * d_, d_) * a.q.middleCols(k * d_, d_).transpose();
+        xw.middleCols(off_k_ + k * d_, d_) * xw.middleCols(off_q_ + k * d_, d_).transpose();
 }
 
-// a.mt[k] = (A_k + B_k + C_k)^T from the window mean of the items (nullptr without C).
+// a.mt = [(A_k + B_k + C_k)^T]_k from the window mean of the items (nullptr without C).
 template <class S>
 void BlockLayer<S>::attention_matrices(const S* mean, Attention& a) const noexcept {
   const int n = n_;
   if (!att_) {
-    for (int k = 0; k < K; ++k) a.mt[static_cast<size_t>(k)] = abt_[static_cast<size_t>(k)];
+    a.mt = abt_;
     return;
   }
-  if (gat_) a.e.noalias() = Eigen::Map<const Mat<S>>(mean, n, node_.c_in) * wemb_;
-  for (int k = 0; k < K; ++k) {
-    Mat<S>& m = a.mt[static_cast<size_t>(k)];
-    if (gat_) {
+  if (gat_) {
+    a.e.noalias() = Eigen::Map<const Mat<S>>(mean, n, node_.c_in) * wemb_;
+    for (int k = 0; k < K; ++k) {
       a.u1.noalias() = a.e.middleCols(k * d_, d_) * a_.col(k).head(d_);  // a[0:d] . e_v
       a.u2.noalias() = a.e.middleCols(k * d_, d_) * a_.col(k).tail(d_);  // a[d:2d] . e_w
       for (int v = 0; v < n; ++v)
         for (int u = 0; u < n; ++u) {
           const S s = a.u2(u) + a.u1(v);
-          m(u, v) = s > S(0) ? s : S(0.2) * s;
+          a.mt(u, Eigen::Index(k) * n + v) = s > S(0) ? s : S(0.2) * s;
         }
-    } else {
-      m = Eigen::Map<const Mat<S>>(mean + Eigen::Index(k) * n * n, n, n) * inv_sqrt_d_;
     }
-    softmax_columns(m);
-    m += abt_[static_cast<size_t>(k)];
+  } else {
+    a.mt = Eigen::Map<const Mat<S>>(mean, n, Eigen::Index(K) * n);
   }
+  // Softmax of each column (column v of a transposed score = row v of the score), over
+  // the whole matrix at once so that exp() runs on full vectors.
+  a.colmax = a.mt.colwise().maxCoeff();
+  a.mt.array().rowwise() -= a.colmax.array();
+  a.mt.array() = a.mt.array().exp();
+  a.colsum = a.mt.colwise().sum();
+  a.mt.array().rowwise() /= a.colsum.array();
+  a.mt += abt_;
 }
 
 template <class S>
@@ -162,7 +170,7 @@ typename BlockLayer<S>::State BlockLayer<S>::make_state() const {
   State st;
   size_attention(st.att);
   if (att_) st.ring.init(items(), T_);
-  st.h.resize(n_, K * node_.c_out);
+  st.xw.resize(n_, wx_.cols());
   st.g.resize(n_, node_.c_out);
   st.hist = Mat<S>::Zero(n_, 2 * node_.kernel * node_.c_out);
   st.out.resize(n_, node_.c_out);
@@ -177,30 +185,22 @@ void BlockLayer<S>::State::reset() noexcept {
 
 // The per-frame steps shared by forward() and step(); only the time means (window sums /
 // ring) and the temporal conv (taps over the window / history ring) differ between them.
-// a. h = ReLU(x Wg + bg) (BN folded), any number of rows.
+// a. h = ReLU(x Wg + bg) (BN folded) in the first K*cout columns of xw = x wx_.
 template <class S>
-template <class DX>
-void BlockLayer<S>::gcn(const Eigen::MatrixBase<DX>& x, Mat<S>& h) const noexcept {
-  h.noalias() = x * wg_;
+template <class DW>
+void BlockLayer<S>::gcn(Eigen::MatrixBase<DW>& xw) const noexcept {
+  auto h = xw.leftCols(off_r_);
   h.rowwise() += bg_;
   h = h.cwiseMax(S(0));
 }
 
-// c. g = sum_k M_k^T h_k for one frame (h: N x K*cout, g: N x cout).
+// e, f. y (the temporal conv + bias) -> ReLU unless linear, + the residual (xw's columns
+// after h; its bias here).
 template <class S>
-template <class DH, class DG>
-void BlockLayer<S>::aggregate(const Attention& a, const Eigen::MatrixBase<DH>& h, Eigen::MatrixBase<DG>& g) const noexcept {
-  const int cout = node_.c_out;
-  g.derived().noalias() = a.mt[0] * h.leftCols(cout);
-  for (int k = 1; k < K; ++k) g.derived().noalias() += a.mt[static_cast<size_t>(k)] * h.middleCols(k * cout, cout);
-}
-
-// e, f. y (the temporal conv + bias) -> ReLU unless linear, + the residual of x.
-template <class S>
-template <class DX>
-void BlockLayer<S>::finish(const Eigen::MatrixBase<DX>& x, Mat<S>& y) const noexcept {
+template <class DR>
+void BlockLayer<S>::finish(const Eigen::MatrixBase<DR>& xw, Mat<S>& y) const noexcept {
   if (!node_.linear) y = y.cwiseMax(S(0));
-  y.noalias() += x * wr_;
+  y += xw.middleCols(off_r_, node_.c_out);
   y.rowwise() += br_;
 }
 
@@ -209,16 +209,21 @@ void BlockLayer<S>::forward(int L, const Mat<S>& x, Mat<S>& y, Workspace& ws) co
   const int n = n_, cout = node_.c_out, kt = node_.kernel;
   const Eigen::Index LN = Eigen::Index(L) * n;
   size_attention(ws.att);
-  // a. gcn conv + BN + ReLU for every frame at once.
-  ws.h.resize(LN, K * cout);
-  gcn(x, ws.h);
-  // b, c. graph aggregation with the attention of each frame's window.
+  // a. every product of x for every frame at once; gcn BN + ReLU.
+  ws.xw.resize(LN, wx_.cols());
+  ws.xw.noalias() = x * wx_;
+  gcn(ws.xw);
+  // b, c. graph aggregation with the attention of each frame's window: g_t = sum_k M_k^T h_k,
+  // subset k's h of frame t being xw's columns k, K+k, ... at the frame's rows.
   ws.g.resize(LN, cout);
   if (att_) {
     ws.items.resize(items(), L);
     ws.mean.resize(items());
-    for (int s = 0; s < L; ++s) attention_items(x.middleRows(Eigen::Index(s) * n, n), ws.att, ws.items.col(s).data());
+    for (int s = 0; s < L; ++s)
+      attention_items(x.middleRows(Eigen::Index(s) * n, n), ws.xw.middleRows(Eigen::Index(s) * n, n),
+                      ws.items.col(s).data());
   }
+  using Strided = Eigen::Map<const Mat<S>, 0, Eigen::OuterStride<>>;
   for (int t = 0; t < L; ++t) {
     if (att_) {
       if (window_mean(node_.mean, T_, L, t, ws.items, ws.mean)) attention_matrices(ws.mean.data(), ws.att);
@@ -226,7 +231,11 @@ void BlockLayer<S>::forward(int L, const Mat<S>& x, Mat<S>& y, Workspace& ws) co
       attention_matrices(nullptr, ws.att);
     }
     auto gt = ws.g.middleRows(Eigen::Index(t) * n, n);
-    aggregate(ws.att, ws.h.middleRows(Eigen::Index(t) * n, n), gt);
+    for (int k = 0; k < K; ++k) {
+      const Strided hk(ws.xw.data() + Eigen::Index(k) * LN + Eigen::Index(t) * n, n, cout, Eigen::OuterStride<>(K * LN));
+      if (k == 0) gt.noalias() = ws.att.mt.leftCols(n) * hk;
+      else gt.noalias() += ws.att.mt.middleCols(Eigen::Index(k) * n, n) * hk;
+    }
   }
   // d. temporal conv, tap by tap over all frames.
   const StgaeTemporalPad pad = node_.pad;
@@ -242,28 +251,30 @@ void BlockLayer<S>::forward(int L, const Mat<S>& x, Mat<S>& y, Workspace& ws) co
   }
   // e. (BN folded) ReLU; f. residual (valid: from the newest frame under the kernel).
   const int r0 = pad == StgaeTemporalPad::Valid ? kt - 1 : 0;
-  finish(x.middleRows(Eigen::Index(r0) * n, Eigen::Index(lout) * n), y);
+  finish(ws.xw.middleRows(Eigen::Index(r0) * n, Eigen::Index(lout) * n), y);
 }
 
 template <class S>
 void BlockLayer<S>::step(State& st, const Mat<S>& x, long t) const noexcept {
-  const int cout = node_.c_out, kt = node_.kernel;
+  const int n = n_, cout = node_.c_out, kt = node_.kernel;
+  st.xw.noalias() = x * wx_;
   if (att_) {
-    attention_items(x, st.att, st.ring.slot(t));
+    attention_items(x, st.xw, st.ring.slot(t));
     st.ring.push_done(t);
     attention_matrices(st.ring.mean.data(), st.att);
   } else if (t == 0) {
     attention_matrices(nullptr, st.att);
   }
-  gcn(x, st.h);
-  aggregate(st.att, st.h, st.g);
+  gcn(st.xw);
+  // One frame's h as (K*N) x cout is [h_0; h_1; ...]: the aggregation in one product.
+  st.g.noalias() = st.att.mt * Eigen::Map<const Mat<S>>(st.xw.data(), Eigen::Index(K) * n, cout);
   // The last kt aggregated frames, each stored twice so that the newest kt are contiguous.
   const auto p = static_cast<Eigen::Index>(t % kt);
   st.hist.middleCols(p * cout, cout) = st.g;
   st.hist.middleCols((p + kt) * cout, cout) = st.g;
   st.out.noalias() = st.hist.middleCols((p + 1) * cout, Eigen::Index(kt) * cout) * wt_;
   st.out.rowwise() += bt_;
-  finish(x, st.out);
+  finish(st.xw, st.out);
 }
 
 // ---------------- gate ----------------

@@ -51,20 +51,21 @@ class BlockLayer {
   const StgaeNode& node() const noexcept { return node_; }
   std::int64_t macs(const StgaeConfig& config, std::int64_t frames) const { return node_.macs(config, frames); }
 
-  // Attention workspace for one frame's matrices M_k^T.
+  // Attention workspace for one frame's matrices: mt = [M_0^T | ... | M_{K-1}^T] (N x K*N).
   struct Attention {
-    Mat<S> q, k, e;
+    Mat<S> e;
     CVec<S> u1, u2;
-    std::array<Mat<S>, kSubsets> mt;
+    RVec<S> colmax, colsum;
+    Mat<S> mt;
   };
   struct State {
     Attention att;
     MeanRing<S> ring;
-    Mat<S> h, g, hist, out;  // hist: N x (2*kt*cout), each frame written twice
+    Mat<S> xw, g, hist, out;  // xw: x times the fused weights; hist: N x (2*kt*cout), each frame written twice
     void reset() noexcept;
   };
   struct Workspace {  // window-mode scratch, reused across calls
-    Mat<S> h, g, items;
+    Mat<S> xw, g, items;
     CVec<S> mean;
     Attention att;
   };
@@ -77,30 +78,29 @@ class BlockLayer {
  private:
   Eigen::Index items() const { return gat_ ? Eigen::Index(n_) * node_.c_in : Eigen::Index(kSubsets) * n_ * n_; }
   void size_attention(Attention& a) const;
-  template <class D>
-  void attention_items(const Eigen::MatrixBase<D>& x, Attention& a, S* out) const noexcept;
+  template <class DX, class DW>
+  void attention_items(const Eigen::MatrixBase<DX>& x, const Eigen::MatrixBase<DW>& xw, S* out) const noexcept;
   void attention_matrices(const S* mean, Attention& a) const noexcept;
-  template <class DX>
-  void gcn(const Eigen::MatrixBase<DX>& x, Mat<S>& h) const noexcept;
-  template <class DH, class DG>
-  void aggregate(const Attention& a, const Eigen::MatrixBase<DH>& h, Eigen::MatrixBase<DG>& g) const noexcept;
-  template <class DX>
-  void finish(const Eigen::MatrixBase<DX>& x, Mat<S>& y) const noexcept;
+  template <class DW>
+  void gcn(Eigen::MatrixBase<DW>& xw) const noexcept;
+  template <class DR>
+  void finish(const Eigen::MatrixBase<DR>& xw, Mat<S>& y) const noexcept;
 
   StgaeNode node_;
   int n_ = 0, d_ = 1, T_ = 1;
   bool att_ = false, gat_ = false;  // data-dependent C; its gat variant
-  Mat<S> wg_;                        // cin x K*cout (gcn conv, BN folded)
-  RVec<S> bg_;
-  std::array<Mat<S>, kSubsets> abt_;  // (A_k + B_k)^T
-  Mat<S> wq_, wk_;                   // cin x K*d (dot)
+  // Every product of the block's input in one: x wx_ = [h | residual | q | k] (N x cols).
+  // h's column c*K + k is subset k's channel c, so that one frame's h read as (K*N) x cout
+  // is [h_0; h_1; ...] and the aggregation is one product.
+  Mat<S> wx_;                        // cin x (K*cout + cout [+ 2*K*d for dot attention])
+  Eigen::Index off_r_ = 0, off_q_ = 0, off_k_ = 0;
+  RVec<S> bg_;                       // 1 x K*cout, the gcn bias (BN folded), interleaved as h
+  Mat<S> abt_;                       // [(A_0 + B_0)^T | ...], N x K*N
   Mat<S> wemb_;                      // cin x K*d (gat)
   Mat<S> a_;                         // 2d x K (gat), column k = a_k
-  S inv_sqrt_d_ = 1;
   Mat<S> wt_;                        // kt*cout x cout, row j*cout + i = input channel i at tap j
   RVec<S> bt_;
-  Mat<S> wr_;                        // cin x cout (residual, BN folded)
-  RVec<S> br_;
+  RVec<S> br_;                       // the residual's bias (BN folded)
 };
 
 template <class S>
