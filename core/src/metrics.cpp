@@ -112,8 +112,8 @@ struct Velocities {
   long n = 0;
   std::vector<double> v, valid;
 };
-Velocities velocities(std::span<const Pose> s) {
-  Velocities out;
+// Into out, reusing its storage (the benchmark evaluates many long tracks per thread).
+void velocities(std::span<const Pose> s, Velocities& out) {
   out.n = s.empty() ? 0 : static_cast<long>(s.size()) - 1;
   out.v.assign(static_cast<size_t>(out.n) * 3 * kJointCount, 0.0);
   out.valid.assign(static_cast<size_t>(out.n) * kJointCount, 0.0);
@@ -125,7 +125,6 @@ Velocities velocities(std::span<const Pose> s) {
       for (int k = 0; k < 3; ++k) out.v[static_cast<size_t>((f * kJointCount + j) * 3 + k)] = d(j, k);
     }
   }
-  return out;
 }
 
 // C(tau) pools the products of the joints present at t in the truth and at t + tau in the
@@ -133,7 +132,9 @@ Velocities velocities(std::span<const Pose> s) {
 // flattened sequences offset by tau frames (and its count one of the presence flags), so
 // each lag costs a single vectorised pass.
 void accumulate_xcorr(std::span<const Pose> truth, std::span<const Pose> est, CrossCorrelation& xc) {
-  const Velocities vt = velocities(truth), ve = velocities(est);
+  thread_local Velocities vt, ve;
+  velocities(truth, vt);
+  velocities(est, ve);
   const long n = vt.n;
   using Seq = Eigen::Map<const Eigen::VectorXd>;
   constexpr long kV = 3 * kJointCount;
