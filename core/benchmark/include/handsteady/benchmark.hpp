@@ -154,6 +154,7 @@ struct Report {
   std::string command;               // how the report was made (for its header)
   bool tuning_split = false;         // the scored sets are the tuning split (Options::tuning_split)
   double seconds = 0;
+  double total_seconds = 0;  // the whole run: loading the sets, tuning, the grid (set by the caller)
 };
 
 // The standard methods: raw, oneeuro (defaults), oneeuro-tuned (looked up in tuned),
