@@ -15,6 +15,7 @@
 #include <map>
 #include <mutex>
 #include <random>
+#include <span>
 #include <thread>
 
 namespace hs::bench {
@@ -312,30 +313,30 @@ Prepared prepare(const Dataset& d, const Cell& cell, const NoiseCell* noise, con
   return p;
 }
 
-// H = 0 only: what the sweeps read (a third of score()'s work; the same values).
-Metrics score_now(const Prepared& p, const Method& m) {
-  std::array<HandSeries, 2> est;
+// The method's answers to each hand's input at each horizon: [horizon][hand].
+std::vector<std::array<HandSeries, 2>> estimates(const Prepared& p, const Method& m, std::span<const double> horizons_s) {
+  std::vector<std::array<HandSeries, 2>> est(horizons_s.size());
   for (const Hand h : {Hand::Left, Hand::Right}) {
     const auto hi = static_cast<size_t>(h);
     if (p.input[hi].empty()) continue;
     auto f = m.make(p.tuned_key);
-    est[hi] = filter_series(*f, p.input[hi], 0.0);
+    auto outs = filter_series(*f, p.input[hi], horizons_s);
+    for (size_t k = 0; k < horizons_s.size(); ++k) est[k][hi] = std::move(outs[k]);
   }
-  return evaluate_tracks(*p.truth, to_track(est), 0.0);
+  return est;
+}
+
+// H = 0 only: what the sweeps read (a third of score()'s work; the same values).
+Metrics score_now(const Prepared& p, const Method& m) {
+  constexpr double now = 0.0;
+  return evaluate_tracks(*p.truth, to_track(estimates(p, m, std::span<const double>(&now, 1)).front()), now);
 }
 
 Result score(const Prepared& p, const Method& m) {
   Result r;
   r.cell = p.cell;
   r.method = m.name;
-  std::array<std::array<HandSeries, 2>, kHorizonsS.size()> est;
-  for (const Hand h : {Hand::Left, Hand::Right}) {
-    const auto hi = static_cast<size_t>(h);
-    if (p.input[hi].empty()) continue;
-    auto f = m.make(p.tuned_key);
-    auto outs = filter_series(*f, p.input[hi], std::span<const double>(kHorizonsS));
-    for (size_t k = 0; k < kHorizonsS.size(); ++k) est[k][hi] = std::move(outs[k]);
-  }
+  const auto est = estimates(p, m, kHorizonsS);
   for (size_t k = 0; k < kHorizonsS.size(); ++k) r.at[k] = evaluate_tracks(*p.truth, to_track(est[k]), kHorizonsS[k]);
   // The occluded joints only: every other joint of the answer is blanked.
   std::array<HandSeries, 2> occ = est[0];
