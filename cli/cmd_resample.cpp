@@ -1,5 +1,7 @@
 // `handsteady resample`: a track linearly resampled to a fixed rate per hand, so that a
-// recording can be replayed at a rate it was not made at (hs::resample_track).
+// recording can be replayed at a rate it was not made at (hs::resample_track), or on a
+// tracker's jittering clock (--jitter: hs::resample_track_jittered, as the benchmark's
+// irregular input rates).
 #include "commands.hpp"
 
 #include "handsteady/gap_policy.hpp"
@@ -8,6 +10,7 @@
 
 #include <fmt/format.h>
 
+#include <cstdint>
 #include <memory>
 #include <string>
 
@@ -18,6 +21,8 @@ struct ResampleOptions {
   std::string in, out;
   double rate_hz = 30.0;
   double max_gap_ms = kInterpolateMaxGapS * 1e3;
+  double jitter = 0.0;
+  uint64_t seed = 1;
 };
 
 void setup_resample(CLI::App& app) {
@@ -30,10 +35,22 @@ void setup_resample(CLI::App& app) {
                   "A joint is interpolated only between rows at most this far apart; otherwise untracked (ms)")
       ->check(CLI::Range(0.0, 60000.0))
       ->capture_default_str();
+  sub->add_option("--jitter", o->jitter,
+                  "Irregular times: each hand at t0 + (k + u) / rate from its first row t0, u uniform in "
+                  "[-jitter, jitter] of a period (0 = the regular grid k / rate)")
+      ->check(CLI::Range(0.0, 0.49))
+      ->capture_default_str();
+  sub->add_option("--seed", o->seed, "Seed of the irregular times (--jitter); hand h uses seed + 17 h")->capture_default_str();
   sub->callback([o] {
     const Track in = read_track_csv(o->in);
-    Track out = resample_track(in, o->rate_hz, o->max_gap_ms / 1e3);
-    out.header_lines.push_back(fmt::format("resampled: rate_hz={:g} max_gap_ms={:g} from {}", o->rate_hz, o->max_gap_ms, o->in));
+    const double gap_s = o->max_gap_ms / 1e3;
+    Track out = o->jitter > 0.0 ? resample_track_jittered(in, o->rate_hz, o->jitter, o->seed, gap_s)
+                                : resample_track(in, o->rate_hz, gap_s);
+    out.header_lines.push_back(
+        o->jitter > 0.0
+            ? fmt::format("resampled: rate_hz={:g} jitter={:g} seed={} max_gap_ms={:g} from {}", o->rate_hz, o->jitter,
+                          o->seed, o->max_gap_ms, o->in)
+            : fmt::format("resampled: rate_hz={:g} max_gap_ms={:g} from {}", o->rate_hz, o->max_gap_ms, o->in));
     write_track_csv(out, o->out);
     fmt::print("resample: {} rows -> {} rows at {:g} Hz ({})\n", in.rows.size(), out.rows.size(), o->rate_hz, o->out);
   });

@@ -122,7 +122,7 @@ TEST_CASE("hand shapes change what they name and nothing else") {
 
 TEST_CASE("irregular resampling: increasing times within 20 % of the grid, the truth interpolated there") {
   const HandSeries in = synth_series(10.0, 120.0, 2);
-  const HandSeries out = bench::resample_irregular(in, 30.0, 9);
+  const HandSeries out = hs::resample_series_jittered(in, 30.0, bench::kTimeJitter, 9);
   REQUIRE(out.size() > 280);
   CHECK(out.size() <= 301);
   double max_off = 0.0, mean_dt = (out.t.back() - out.t.front()) / static_cast<double>(out.size() - 1);

@@ -79,6 +79,27 @@ TEST_CASE("resample_series: a ramp on an irregular clock lands on the grid exact
   CHECK_THROWS_AS(resample_series(s, 0.0), std::invalid_argument);
 }
 
+TEST_CASE("resample_series_jittered: times within the jitter of the grid from the first row, refused beyond half a period") {
+  std::vector<double> times;
+  for (int i = 0; i <= 10; ++i) times.push_back(0.01 + 0.1 * i);
+  const HandSeries s = ramp_series(times);
+  const HandSeries r = resample_series_jittered(s, 40.0, 0.25, 3);
+  REQUIRE(r.size() >= 39);
+  CHECK(r.size() <= 41);
+  for (size_t i = 0; i < r.size(); ++i) {
+    const double k = (r.t[i] - 0.01) * 40.0;
+    CHECK(std::abs(k - std::round(k)) <= 0.25 + 1e-9);
+    if (i > 0) CHECK(r.t[i] > r.t[i - 1]);
+    CHECK(same_pose(r.pos[i], ramp_pose(3.0 * r.t[i]), 1e-12));
+  }
+  // No jitter: the grid from the first row, exactly.
+  const HandSeries g = resample_series_jittered(s, 40.0, 0.0, 3);
+  REQUIRE(g.size() >= 40);  // the last, 1.01 s, only if rounding keeps it in the span
+  for (size_t i = 0; i < g.size(); ++i) CHECK(g.t[i] == doctest::Approx(0.01 + 0.025 * static_cast<double>(i)));
+  CHECK_THROWS_AS(resample_series_jittered(s, 40.0, 0.5, 3), std::invalid_argument);
+  CHECK_THROWS_AS(resample_series_jittered(s, 0.0, 0.2, 3), std::invalid_argument);
+}
+
 TEST_CASE("resample_track: per hand, rate_hz metadata set") {
   Track t;
   t.set_meta("source", "test");

@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <random>
 #include <stdexcept>
 
 namespace hs {
@@ -57,6 +59,40 @@ Track resample_track(const Track& track, double rate_hz, double max_gap_s) {
   for (Hand h : {Hand::Left, Hand::Right}) {
     const HandSeries s = hand_series(track, h);
     if (!s.empty()) add_hand_series(out, h, resample_series(s, rate_hz, max_gap_s));
+  }
+  out.set_meta("rate_hz", fmt::format("{:g}", rate_hz));
+  return out;
+}
+
+HandSeries resample_series_jittered(const HandSeries& series, double rate_hz, double jitter, uint64_t seed,
+                                    double max_gap_s) {
+  if (!(rate_hz > 0.0) || !std::isfinite(rate_hz)) throw std::invalid_argument("resample: rate_hz must be positive");
+  if (!(jitter >= 0.0 && jitter < 0.5)) throw std::invalid_argument("resample: jitter must be in [0, 0.5) of a period");
+  HandSeries out;
+  if (series.empty()) return out;
+  std::mt19937_64 rng(seed);
+  const double t0 = series.t.front(), t1 = series.t.back(), period = 1.0 / rate_hz;
+  double last = -std::numeric_limits<double>::infinity();
+  for (long k = 0;; ++k) {
+    const double u = 2.0 * jitter * (static_cast<double>(rng() >> 11) * 0x1.0p-53) - jitter;
+    const double t = t0 + (static_cast<double>(k) + u) * period;
+    if (t > t1) break;
+    if (t < t0 || t <= last) continue;  // the first sample may fall before the hand's first row
+    out.t.push_back(t);
+    out.pos.push_back(interpolate_pose(series, t, max_gap_s));
+    last = t;
+  }
+  return out;
+}
+
+Track resample_track_jittered(const Track& track, double rate_hz, double jitter, uint64_t seed, double max_gap_s) {
+  Track out;
+  out.header_lines = track.header_lines;
+  for (Hand h : {Hand::Left, Hand::Right}) {
+    const HandSeries s = hand_series(track, h);
+    if (!s.empty())
+      add_hand_series(out, h,
+                      resample_series_jittered(s, rate_hz, jitter, seed + 17 * static_cast<uint64_t>(h), max_gap_s));
   }
   out.set_meta("rate_hz", fmt::format("{:g}", rate_hz));
   return out;

@@ -224,24 +224,6 @@ std::vector<ShapeVariant> shape_variants(bool quick) {
           {"thumb base", ShapeKind::ThumbBase, 0.3}};
 }
 
-HandSeries resample_irregular(const HandSeries& series, double rate_hz, uint64_t seed) {
-  HandSeries out;
-  if (series.empty() || !(rate_hz > 0.0)) return out;
-  std::mt19937_64 rng(seed);
-  const double t0 = series.t.front(), t1 = series.t.back(), period = 1.0 / rate_hz;
-  double last = -std::numeric_limits<double>::infinity();
-  for (long k = 0;; ++k) {
-    const double u = 0.4 * (static_cast<double>(rng() >> 11) * 0x1.0p-53) - 0.2;
-    const double t = t0 + (static_cast<double>(k) + u) * period;
-    if (t > t1) break;
-    if (t < t0 || t <= last) continue;
-    out.t.push_back(t);
-    out.pos.push_back(interpolate_pose(series, t));
-    last = t;
-  }
-  return out;
-}
-
 std::vector<Method> classical_methods(const std::vector<std::pair<std::string, OneEuroParams>>& tuned) {
   const auto plain = [](FilterMethod m) {
     return [m](const std::string&) {
@@ -302,7 +284,7 @@ Prepared prepare(const Dataset& d, const Cell& cell, const NoiseCell* noise, con
   p.truth = shaped_cache;
   for (const Hand h : {Hand::Left, Hand::Right}) {
     const auto hi = static_cast<size_t>(h);
-    HandSeries in = resample_irregular(shaped[hi], cell.rate_hz, s + 17 * static_cast<uint64_t>(h));
+    HandSeries in = resample_series_jittered(shaped[hi], cell.rate_hz, kTimeJitter, s + 17 * static_cast<uint64_t>(h));
     p.clean[hi] = in;
     if (noise) {
       uint64_t k = 0;

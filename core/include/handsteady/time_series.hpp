@@ -13,6 +13,7 @@
 #include <array>
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
 #include <limits>
 #include <span>
 
@@ -161,5 +162,15 @@ Pose interpolate_pose(const HandSeries& series, double t, double max_gap_s = kIn
 // cannot be interpolated (gaps > max_gap_s) stay untracked. Metadata kept, rate_hz set.
 HandSeries resample_series(const HandSeries& series, double rate_hz, double max_gap_s = kInterpolateMaxGapS);
 Track resample_track(const Track& track, double rate_hz, double max_gap_s = kInterpolateMaxGapS);
+
+// A tracker's jittering clock: each hand at times t0 + (k + u_k) / rate_hz from its first
+// row t0, u_k uniform in [-jitter, jitter] (0 <= jitter < 0.5, so times stay increasing),
+// seeded; the hand interpolated there (gaps as above). The benchmark's irregular input
+// rates (jitter 0.2) and `handsteady resample --jitter`. The track version seeds each hand
+// with seed + 17 * hand (Left 0, Right 1).
+HandSeries resample_series_jittered(const HandSeries& series, double rate_hz, double jitter, uint64_t seed,
+                                    double max_gap_s = kInterpolateMaxGapS);
+Track resample_track_jittered(const Track& track, double rate_hz, double jitter, uint64_t seed,
+                              double max_gap_s = kInterpolateMaxGapS);
 
 }  // namespace hs

@@ -57,9 +57,9 @@ using hs::ShapeVariant;
 using hs::apply_shape;
 std::vector<ShapeVariant> shape_variants(bool quick);
 
-// The rows a tracker at rate_hz would give: times k / rate +- 20 % of a period (seeded),
-// the truth interpolated there.
-HandSeries resample_irregular(const HandSeries& series, double rate_hz, uint64_t seed);
+// The rows a tracker at rate_hz gives: times k / rate +- 20 % of a period (seeded,
+// hs::resample_series_jittered), the truth interpolated there.
+inline constexpr double kTimeJitter = 0.2;
 
 // A method under test: a fresh filter per hand and cell. tuned_key is the NoiseCell key
 // of the cell (a method tuned per noise cell looks its parameters up by it).
