@@ -17,6 +17,7 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -30,6 +31,7 @@ struct BenchmarkOptions {
   std::string out;
   std::vector<std::string> models;  // LABEL=FILE.hsm
   bool no_default_model = false;
+  bool quiet = false;  // no progress lines on stderr
   bool unbounded = false;  // also each model without its trust region
   bool gain = false;       // also each model with its correction gain
   bool smoothed = false;   // also each model with its prediction smoothing
@@ -49,6 +51,15 @@ void run_benchmark(const BenchmarkOptions& o, const std::string& command) {
   const auto t_start = std::chrono::steady_clock::now();
   bench::Report report;
   report.command = command;
+  bench::Options run = o.run;
+  std::mutex progress_mu;
+  if (!o.quiet)
+    run.progress = [&progress_mu, t_start](const std::string& line) {
+      const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+      std::lock_guard lock(progress_mu);
+      fmt::print(stderr, "benchmark [{:5.0f} s] {}\n", s, line);
+    };
+  if (run.progress) run.progress("loading the recordings");
   auto sets = bench::load_datasets(o.data, o.run.quick, report.notes);
 #ifdef HS_HAVE_HANDWRITING
   try {  // synthetic handwriting: truth by construction, writing motion at 60 Hz
@@ -83,7 +94,7 @@ void run_benchmark(const BenchmarkOptions& o, const std::string& command) {
       else report.notes.push_back(std::string("no shipped ") + label + " model found (" + lookup.describe_tried() + ")");
     }
   }
-  bench::tune_oneeuro(sets, o.run, report);
+  bench::tune_oneeuro(sets, run, report);
   auto methods = bench::classical_methods(report.tuned);
   const auto classical = static_cast<std::ptrdiff_t>(methods.size());
   for (const auto& [label, file] : model_files) {
@@ -124,7 +135,7 @@ void run_benchmark(const BenchmarkOptions& o, const std::string& command) {
                              }});
     methods.insert(methods.begin() + classical, cancelled.begin(), cancelled.end());
   }
-  bench::run_grid(sets, methods, o.run, report);
+  bench::run_grid(sets, methods, run, report);
   report.total_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
   fs::create_directories(o.out);
   write_text(fs::path(o.out) / "benchmark.md", bench::report_markdown(report, o.run));
@@ -140,6 +151,7 @@ void setup_benchmark(CLI::App& app) {
   sub->add_option("--data", o->data, "The shared recordings folder")->capture_default_str();
   sub->add_option("--out", o->out, "Folder for benchmark.md, benchmark.json, curve.csv")->required();
   sub->add_option("--model", o->models, "LABEL=FILE.hsm, a causal model to score (repeatable)");
+  sub->add_flag("--quiet", o->quiet, "No progress lines on stderr (stages, and the scoring every 10 %)");
   sub->add_flag("--no-default-model", o->no_default_model, "Do not add the shipped models (labels multistgae, stgae, dgn)");
   sub->add_flag("--palm-fit", o->palm_fit,
                 "Also score raw and tuned One Euro behind the palm fit (raw-palmfit, oneeuro-tuned-palmfit) and each "

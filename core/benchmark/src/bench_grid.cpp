@@ -337,6 +337,10 @@ Result score(const Prepared& p, const Method& m) {
   return r;
 }
 
+void say(const Options& options, const std::string& line) {
+  if (options.progress) options.progress(line);
+}
+
 // Runs jobs 0..n-1 on `threads` threads (job i by whichever thread takes it first).
 void parallel_for(size_t n, int threads, const std::function<void(size_t)>& job) {
   std::atomic<size_t> next{0};
@@ -438,6 +442,8 @@ void tune_oneeuro(const std::vector<Dataset>& datasets, const Options& options, 
     report.notes.push_back("no tuning set: oneeuro-tuned uses One Euro's defaults");
     return;
   }
+  say(options, fmt::format("tuning One Euro on the tuning split: {} noise cells x {} parameter pairs", noise.size(),
+                           points.size()));
   std::vector<Prepared> inputs(noise.size() * tuning.size());
   parallel_for(inputs.size(), options.threads, [&](size_t i) {
     const NoiseCell& n = noise[i / tuning.size()];
@@ -521,6 +527,7 @@ void run_grid(const std::vector<Dataset>& datasets, const std::vector<Method>& m
                          tracker_preset, s});
   }
   // Prepare inputs (the shaped truth is shared by the cells of one set and shape).
+  say(options, fmt::format("preparing {} cells", specs.size()));
   std::vector<Prepared> inputs(specs.size());
   {
     std::map<std::string, std::shared_ptr<const Track>> truth_cache;
@@ -545,8 +552,13 @@ void run_grid(const std::vector<Dataset>& datasets, const std::vector<Method>& m
       if (methods[m].is_model == (pass == 0))
         for (size_t c = 0; c < inputs.size(); ++c) jobs.emplace_back(c, m);
   std::vector<Result> results(jobs.size());
-  parallel_for(jobs.size(), options.threads,
-               [&](size_t i) { results[i] = score(inputs[jobs[i].first], methods[jobs[i].second]); });
+  say(options, fmt::format("scoring {} cells x {} methods", inputs.size(), methods.size()));
+  std::atomic<size_t> done{0};
+  parallel_for(jobs.size(), options.threads, [&](size_t i) {
+    results[i] = score(inputs[jobs[i].first], methods[jobs[i].second]);
+    const size_t d = ++done, n = jobs.size();
+    if (d * 10 / n != (d - 1) * 10 / n) say(options, fmt::format("scoring: {} % ({} of {} jobs)", d * 100 / n, d, n));
+  });
   // Report order: cell by cell, methods in the order given.
   const auto method_pos = [&](const std::string& name) {
     return std::find(report.methods.begin(), report.methods.end(), name) - report.methods.begin();
@@ -557,6 +569,7 @@ void run_grid(const std::vector<Dataset>& datasets, const std::vector<Method>& m
   });
   for (auto& r : results) report.results.push_back(std::move(r));
 
+  say(options, "sweeps (One Euro's curve, the recordings without truth) and still hands");
   // One Euro's whole sweep on one test cell: its jitter-lag curve.
   for (const Prepared& p : inputs)
     if (p.cell.block == "noise" && p.tuned_key == (tracker_preset ? tracker_preset->key() : "")) {

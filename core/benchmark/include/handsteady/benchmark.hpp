@@ -76,6 +76,10 @@ struct Options {
   // Score the tuning sets instead of the test sets: for choosing a method's own constants
   // without looking at the test sets (One Euro is then tuned on the sets it is scored on).
   bool tuning_split = false;
+  // Where a run reports its stages and the scoring's progress, a line at a time (called
+  // from worker threads, so it must be thread-safe); empty: silent. A full run takes tens
+  // of minutes, and a user should see it move.
+  std::function<void(const std::string&)> progress;
 };
 
 struct Cell {
