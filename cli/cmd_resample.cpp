@@ -44,13 +44,12 @@ void setup_resample(CLI::App& app) {
   sub->callback([o] {
     const Track in = read_track_csv(o->in);
     const double gap_s = o->max_gap_ms / 1e3;
-    Track out = o->jitter > 0.0 ? resample_track_jittered(in, o->rate_hz, o->jitter, o->seed, gap_s)
-                                : resample_track(in, o->rate_hz, gap_s);
+    const bool jittered = o->jitter > 0.0;
+    Track out = jittered ? resample_track_jittered(in, o->rate_hz, o->jitter, o->seed, gap_s)
+                         : resample_track(in, o->rate_hz, gap_s);
+    const std::string clock = jittered ? fmt::format(" jitter={:g} seed={}", o->jitter, o->seed) : std::string();
     out.header_lines.push_back(
-        o->jitter > 0.0
-            ? fmt::format("resampled: rate_hz={:g} jitter={:g} seed={} max_gap_ms={:g} from {}", o->rate_hz, o->jitter,
-                          o->seed, o->max_gap_ms, o->in)
-            : fmt::format("resampled: rate_hz={:g} max_gap_ms={:g} from {}", o->rate_hz, o->max_gap_ms, o->in));
+        fmt::format("resampled: rate_hz={:g}{} max_gap_ms={:g} from {}", o->rate_hz, clock, o->max_gap_ms, o->in));
     write_track_csv(out, o->out);
     fmt::print("resample: {} rows -> {} rows at {:g} Hz ({})\n", in.rows.size(), out.rows.size(), o->rate_hz, o->out);
   });

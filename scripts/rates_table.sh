@@ -12,6 +12,8 @@ hs=$1; data=$2; out=$3; shift 3
 rates=("$@")
 [ ${#rates[@]} -gt 0 ] || rates=(30 44 45 60 75)
 mkdir -p "$out"
+model=()
+if [ -n "${HANDSTEADY_MODEL:-}" ]; then model=(--model "$HANDSTEADY_MODEL"); fi
 "$hs" import --format bvh --in "$data/manipnet/mug3_rightHand.bvh" --out "$out/manipnet.csv" >/dev/null
 "$hs" import --format fpha --in "$data/fpha/Subject_5" --out "$out/fpha.csv" >/dev/null
 metric() {  # truth estimate horizon_ms -> "MPJPE jitter"
@@ -26,7 +28,7 @@ for set in manipnet fpha; do
     "$hs" resample --in "$out/$set.csv" --out "$b-clean.csv" --rate "$rate" --jitter 0.2 --seed 5 >/dev/null
     "$hs" corrupt --in "$b-clean.csv" --out "$b-noisy.csv" --preset tracker --seed 2 >/dev/null
     for h in 0 50; do
-      "$hs" filter --in "$b-noisy.csv" --out "$b-h$h.csv" --method stgae --horizon-ms "$h" >/dev/null
+      "$hs" filter --in "$b-noisy.csv" --out "$b-h$h.csv" --method stgae "${model[@]}" --horizon-ms "$h" >/dev/null
     done
     read -r raw _ < <(metric "$b-clean.csv" "$b-noisy.csv" 0)
     read -r m0 j0 < <(metric "$b-clean.csv" "$b-h0.csv" 0)

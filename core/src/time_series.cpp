@@ -10,6 +10,23 @@
 #include <stdexcept>
 
 namespace hs {
+namespace {
+
+// Each hand of a track resampled by `resample` (HandSeries, Hand -> HandSeries); header
+// kept, rate_hz set.
+template <class Resample>
+Track resample_each_hand(const Track& track, double rate_hz, const Resample& resample) {
+  Track out;
+  out.header_lines = track.header_lines;
+  for (Hand h : {Hand::Left, Hand::Right}) {
+    const HandSeries s = hand_series(track, h);
+    if (!s.empty()) add_hand_series(out, h, resample(s, h));
+  }
+  out.set_meta("rate_hz", fmt::format("{:g}", rate_hz));
+  return out;
+}
+
+}  // namespace
 
 Pose interpolate_pose(const HandSeries& series, double t, double max_gap_s) {
   if (series.empty() || !std::isfinite(t) || t < series.t.front() || t > series.t.back()) return untracked_pose();
@@ -54,14 +71,7 @@ HandSeries resample_series(const HandSeries& series, double rate_hz, double max_
 }
 
 Track resample_track(const Track& track, double rate_hz, double max_gap_s) {
-  Track out;
-  out.header_lines = track.header_lines;
-  for (Hand h : {Hand::Left, Hand::Right}) {
-    const HandSeries s = hand_series(track, h);
-    if (!s.empty()) add_hand_series(out, h, resample_series(s, rate_hz, max_gap_s));
-  }
-  out.set_meta("rate_hz", fmt::format("{:g}", rate_hz));
-  return out;
+  return resample_each_hand(track, rate_hz, [&](const HandSeries& s, Hand) { return resample_series(s, rate_hz, max_gap_s); });
 }
 
 HandSeries resample_series_jittered(const HandSeries& series, double rate_hz, double jitter, uint64_t seed,
@@ -86,16 +96,9 @@ HandSeries resample_series_jittered(const HandSeries& series, double rate_hz, do
 }
 
 Track resample_track_jittered(const Track& track, double rate_hz, double jitter, uint64_t seed, double max_gap_s) {
-  Track out;
-  out.header_lines = track.header_lines;
-  for (Hand h : {Hand::Left, Hand::Right}) {
-    const HandSeries s = hand_series(track, h);
-    if (!s.empty())
-      add_hand_series(out, h,
-                      resample_series_jittered(s, rate_hz, jitter, seed + 17 * static_cast<uint64_t>(h), max_gap_s));
-  }
-  out.set_meta("rate_hz", fmt::format("{:g}", rate_hz));
-  return out;
+  return resample_each_hand(track, rate_hz, [&](const HandSeries& s, Hand h) {
+    return resample_series_jittered(s, rate_hz, jitter, seed + 17 * static_cast<uint64_t>(h), max_gap_s);
+  });
 }
 
 }  // namespace hs
