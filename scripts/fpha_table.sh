@@ -20,17 +20,24 @@ hs=$1; data=$2; out=$3
 mkdir -p "$out"
 $hs import --format fpha --in "$data/fpha/Subject_5" --out "$out/clean.csv" >/dev/null
 methods=(raw oneeuro desp kalman)
+# The CLI finds the shipped model itself; HANDSTEADY_MODEL names another for every stgae row.
+model=()
+if [ -n "${HANDSTEADY_MODEL:-}" ]; then model=(--model "$HANDSTEADY_MODEL"); fi
 has_stgae=0
-if $hs filter --method stgae --in "$out/clean.csv" --out "$out/probe.csv" >/dev/null 2>&1; then
+if $hs filter --method stgae "${model[@]}" --in "$out/clean.csv" --out "$out/probe.csv" >/dev/null 2>&1; then
   methods+=(stgae); has_stgae=1
+elif [ ${#model[@]} -gt 0 ]; then
+  echo "fpha_table.sh: HANDSTEADY_MODEL=$HANDSTEADY_MODEL cannot be run:" >&2
+  $hs filter --method stgae "${model[@]}" --in "$out/clean.csv" --out "$out/probe.csv" >/dev/null || true
+  exit 2
 else
   echo "(no Multi-STGAE model found: its rows are left out)"
 fi
 # extra NAME OPTION...: a Multi-STGAE row with these `handsteady filter` options.
 extra() {
   local m=$1; shift
-  $hs filter --in "$d/noisy.csv" --out "$d/$m.csv" --method stgae "$@" >/dev/null
-  $hs filter --in "$d/noisy.csv" --out "$d/${m}_h50.csv" --method stgae "$@" --horizon-ms 50 >/dev/null
+  $hs filter --in "$d/noisy.csv" --out "$d/$m.csv" --method stgae "${model[@]}" "$@" >/dev/null
+  $hs filter --in "$d/noisy.csv" --out "$d/${m}_h50.csv" --method stgae "${model[@]}" "$@" --horizon-ms 50 >/dev/null
   den+=(--in "$m=$d/$m.csv"); pre+=(--in "$m=$d/${m}_h50.csv")
 }
 for preset in tracker paper tremor; do
@@ -39,15 +46,20 @@ for preset in tracker paper tremor; do
   $hs corrupt --in "$out/clean.csv" --out "$d/noisy.csv" --preset "$preset" --seed 1 >/dev/null
   den=(); pre=()
   for m in "${methods[@]}"; do
-    $hs filter --in "$d/noisy.csv" --out "$d/$m.csv" --method "$m" >/dev/null
-    $hs filter --in "$d/noisy.csv" --out "$d/${m}_h50.csv" --method "$m" --horizon-ms 50 >/dev/null
+    opt=(); if [ "$m" = stgae ]; then opt=("${model[@]}"); fi
+    $hs filter --in "$d/noisy.csv" --out "$d/$m.csv" --method "$m" "${opt[@]}" >/dev/null
+    $hs filter --in "$d/noisy.csv" --out "$d/${m}_h50.csv" --method "$m" "${opt[@]}" --horizon-ms 50 >/dev/null
     den+=(--in "$m=$d/$m.csv"); pre+=(--in "$m=$d/${m}_h50.csv")
   done
   [ "${HS_FPHA_UNBOUNDED:-0}" = 1 ] && [ $has_stgae = 1 ] && extra stgae-unbounded --unbounded
   [ "${HS_FPHA_NOPALMFIT:-0}" = 1 ] && [ $has_stgae = 1 ] && extra stgae-nopalmfit --no-palm-fit
   [ "${HS_FPHA_SMOOTHED:-0}" = 1 ] && [ $has_stgae = 1 ] && extra stgae-smoothed --smooth-predictions
   [ "${HS_FPHA_TREMOR:-0}" = 1 ] && [ $has_stgae = 1 ] && extra stgae-tremor --tremor-cancel
-  [ -n "${HS_CENTRED_MODEL:-}" ] && extra stgae-centred-window --offline --model "$HS_CENTRED_MODEL"
+  if [ -n "${HS_CENTRED_MODEL:-}" ]; then
+    own=("${model[@]}"); model=(--model "$HS_CENTRED_MODEL")
+    extra stgae-centred-window --offline
+    model=("${own[@]}")
+  fi
   echo "#### \`$preset\` preset: denoising (H = 0)"
   $hs compare --truth "$out/clean.csv" "${den[@]}"
   echo
