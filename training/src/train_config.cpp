@@ -8,9 +8,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <sstream>
+#include <type_traits>
+#include <utility>
 
 namespace hs::train {
 
@@ -22,6 +26,51 @@ using json = nlohmann::ordered_json;
 
 [[noreturn]] void config_error(const std::string& source, const std::string& key, const std::string& what) {
   throw InputError(SourceLocation{source, 0, key}, what);
+}
+
+template <class T>
+struct IsVector : std::false_type {};
+template <class U, class A>
+struct IsVector<std::vector<U, A>> : std::true_type {};
+
+// A JSON value as T, or an InputError naming the key. nlohmann's get<int>() casts any
+// number it finds (5.6e113 into an int is undefined behaviour, 2^32 silently becomes 0),
+// so every number is checked against the range of the type it is read into.
+template <class T>
+T checked(const json& v, const std::string& source, const std::string& key) {
+  if constexpr (std::is_same_v<T, bool>) {
+    if (!v.is_boolean()) config_error(source, key, "expected true or false");
+    return v.get<bool>();
+  } else if constexpr (std::is_integral_v<T>) {
+    const auto range = "expected an integer in [" + std::to_string(std::numeric_limits<T>::min()) + ", " +
+                       std::to_string(std::numeric_limits<T>::max()) + "]";
+    if (v.is_number_unsigned()) {
+      const auto x = v.get<std::uint64_t>();
+      if (!std::in_range<T>(x)) config_error(source, key, range);
+      return static_cast<T>(x);
+    }
+    if (!v.is_number_integer()) config_error(source, key, range);
+    const auto x = v.get<std::int64_t>();
+    if (!std::in_range<T>(x)) config_error(source, key, range);
+    return static_cast<T>(x);
+  } else if constexpr (std::is_floating_point_v<T>) {
+    if (!v.is_number()) config_error(source, key, "expected a number");
+    const double x = v.get<double>();
+    if (!std::isfinite(x) || std::fabs(x) > static_cast<double>(std::numeric_limits<T>::max()))
+      config_error(source, key, "expected a finite number");
+    return static_cast<T>(x);
+  } else if constexpr (std::is_same_v<T, std::string>) {
+    if (!v.is_string()) config_error(source, key, "expected a string");
+    return v.get<std::string>();
+  } else if constexpr (IsVector<T>::value) {
+    if (!v.is_array()) config_error(source, key, "expected an array");
+    T out;
+    for (size_t i = 0; i < v.size(); ++i)
+      out.push_back(checked<typename T::value_type>(v[i], source, key + "[" + std::to_string(i) + "]"));
+    return out;
+  } else {
+    static_assert(IsVector<T>::value, "checked<T>: add this type");
+  }
 }
 
 // Reads a JSON object's members by key with type checks; unknown keys are errors.
@@ -36,11 +85,7 @@ class Section {
   void get(const std::string& key, T& out) {
     seen_.push_back(key);
     if (!obj_ || !obj_->contains(key)) return;
-    try {
-      out = obj_->at(key).get<T>();
-    } catch (const json::exception&) {
-      config_error(source_, path_ + "." + key, "wrong type");
-    }
+    out = checked<T>(obj_->at(key), source_, path_ + "." + key);
   }
   const json* raw(const std::string& key) {
     seen_.push_back(key);
@@ -93,27 +138,24 @@ std::vector<DataSource> parse_sources(const json& list, const std::string& sourc
     const json& e = *ep;
     if (!e.is_object()) config_error(source, k, "expected {\"fpha\": root, \"subjects\": [...]} or {\"path\": ...}");
     DataSource d;
-    try {
-      for (const auto& [name, v] : e.items()) {
-        if (name == "fpha") {
-          d.fpha = true;
-          d.path = v.get<std::string>();
-        } else if (name == "path") {
-          d.path = v.get<std::string>();
-        } else if (name == "subjects") {
-          d.subjects = v.get<std::vector<int>>();
-        } else if (name == "include") {
-          d.include = v.get<std::vector<std::string>>();
-        } else if (name == "exclude") {
-          d.exclude = v.get<std::vector<std::string>>();
-        } else if (name == "weight") {
-          d.weight = v.get<double>();
-        } else {
-          config_error(source, k + "." + name, "unknown key");
-        }
+    for (const auto& [name, v] : e.items()) {
+      const std::string at = k + "." + name;
+      if (name == "fpha") {
+        d.fpha = true;
+        d.path = checked<std::string>(v, source, at);
+      } else if (name == "path") {
+        d.path = checked<std::string>(v, source, at);
+      } else if (name == "subjects") {
+        d.subjects = checked<std::vector<int>>(v, source, at);
+      } else if (name == "include") {
+        d.include = checked<std::vector<std::string>>(v, source, at);
+      } else if (name == "exclude") {
+        d.exclude = checked<std::vector<std::string>>(v, source, at);
+      } else if (name == "weight") {
+        d.weight = checked<double>(v, source, at);
+      } else {
+        config_error(source, at, "unknown key");
       }
-    } catch (const json::exception&) {
-      config_error(source, k, "wrong type");
     }
     if (e.contains("fpha") == e.contains("path")) config_error(source, k, "give exactly one of fpha and path");
     if (d.fpha && d.subjects.empty()) config_error(source, k + ".subjects", "FPHA needs subject numbers");
@@ -269,7 +311,7 @@ TrainConfig config_from_object(const json& j, const std::string& source, std::st
     for (const auto& e : *lr) {
       if (!e.is_array() || e.size() != 2 || !e[0].is_number_integer() || !e[1].is_number())
         config_error(source, "train.lr", "expected [[first_epoch, rate], ...]");
-      c.lr.emplace_back(e[0].get<int>(), e[1].get<double>());
+      c.lr.emplace_back(checked<int>(e[0], source, "train.lr"), checked<double>(e[1], source, "train.lr"));
     }
   }
   tr.get("grad_clip", c.grad_clip);
@@ -328,7 +370,7 @@ TrainConfig config_from_object(const json& j, const std::string& source, std::st
           config_error(source, key + "." + k, "expected a finite weight >= 0");
         *it->second = v.get<double>();
       }
-      const int first = e.at("epoch").get<int>();
+      const int first = checked<int>(e.at("epoch"), source, key + ".epoch");
       if (first < 0 || (!c.loss_stages.empty() && first <= c.loss_stages.back().first))
         config_error(source, key + ".epoch", "epochs must be >= 0 and increase");
       c.loss_stages.emplace_back(first, w);

@@ -444,6 +444,18 @@ TEST_CASE("sources and the corruption mix keyed by name: same recipe, a patch ch
   CHECK(error_field(R"({"model": {}, "corruption": {"mix": 3}})") == "corruption.mix");
   // Found by fuzz_train_config: a number too large for a double was another exception type.
   CHECK_THROWS_AS(parse_train_config(R"({"model": {}, "train": {"grad_clip": 1e3028}})"), InputError);
+  // Found by fuzz_train_config (2026-11-27): numbers out of an integer's range were cast
+  // (5.6e113 into an int: undefined behaviour; 2^32 became 0), and a fraction was truncated.
+  CHECK(error_field(R"({"model": {}, "data": {"root": "/r", "train_subjects": [5.6e113, 2], "val_subjects": [5]}})") ==
+        "data.train_subjects[0]");
+  CHECK(error_field(R"({"model": {}, "data": {"train": [{"fpha": "/r", "subjects": [1, 4294967297]}],
+                        "val": [{"path": "y"}]}})") == "data.train[0].subjects[1]");
+  CHECK(error_field(R"({"model": {}, "train": {"lr": [[4294967296, 0.01]]}})") == "train.lr");
+  CHECK(error_field(R"({"model": {}, "loss": {"stages": [{"epoch": 4294967296}]}})") == "loss.stages[0].epoch");
+  CHECK(error_field(R"({"model": {}, "train": {"epochs": 2.5}})") == "train.epochs");
+  CHECK(error_field(R"({"model": {}, "train": {"seed": -1}})") == "train.seed");
+  CHECK(error_field(R"({"model": {}, "train": {"seed": 18446744073709551615}})") == "(no error)");
+  CHECK(error_field(R"({"model": {}, "augment": {"speed_factors": [1, "2"]}})") == "augment.speed_factors[1]");
 }
 
 TEST_CASE("every training config in models/configs reads (bases resolved)") {
