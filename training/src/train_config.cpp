@@ -34,7 +34,7 @@ template <class U, class A>
 struct IsVector<std::vector<U, A>> : std::true_type {};
 
 // A JSON value as T, or an InputError naming the key. nlohmann's get<int>() casts any
-// number it finds (5.6e113 into an int is undefined behaviour, 2^32 silently becomes 0),
+// number it finds (5.6e113 into an int is undefined behaviour, 2^32 + 5 silently becomes 5),
 // so every number is checked against the range of the type it is read into.
 template <class T>
 T checked(const json& v, const std::string& source, const std::string& key) {

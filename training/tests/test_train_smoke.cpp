@@ -445,7 +445,7 @@ TEST_CASE("sources and the corruption mix keyed by name: same recipe, a patch ch
   // Found by fuzz_train_config: a number too large for a double was another exception type.
   CHECK_THROWS_AS(parse_train_config(R"({"model": {}, "train": {"grad_clip": 1e3028}})"), InputError);
   // Found by fuzz_train_config (2026-11-27): numbers out of an integer's range were cast
-  // (5.6e113 into an int: undefined behaviour; 2^32 became 0), and a fraction was truncated.
+  // (5.6e113 into an int: undefined behaviour; 2^32 + 5 became 5), and a fraction was truncated.
   CHECK(error_field(R"({"model": {}, "data": {"root": "/r", "train_subjects": [5.6e113, 2], "val_subjects": [5]}})") ==
         "data.train_subjects[0]");
   CHECK(error_field(R"({"model": {}, "data": {"train": [{"fpha": "/r", "subjects": [1, 4294967297]}],
