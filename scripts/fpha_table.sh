@@ -24,20 +24,20 @@ methods=(raw oneeuro desp kalman)
 model=()
 if [ -n "${HANDSTEADY_MODEL:-}" ]; then model=(--model "$HANDSTEADY_MODEL"); fi
 has_stgae=0
-if $hs filter --method stgae "${model[@]}" --in "$out/clean.csv" --out "$out/probe.csv" >/dev/null 2>&1; then
+if probe=$($hs filter --method stgae "${model[@]}" --in "$out/clean.csv" --out "$out/probe.csv" 2>&1 >/dev/null); then
   methods+=(stgae); has_stgae=1
 elif [ ${#model[@]} -gt 0 ]; then
-  echo "fpha_table.sh: HANDSTEADY_MODEL=$HANDSTEADY_MODEL cannot be run:" >&2
-  $hs filter --method stgae "${model[@]}" --in "$out/clean.csv" --out "$out/probe.csv" >/dev/null || true
+  echo "fpha_table.sh: HANDSTEADY_MODEL=$HANDSTEADY_MODEL cannot be run: $probe" >&2
   exit 2
 else
   echo "(no Multi-STGAE model found: its rows are left out)"
 fi
-# extra NAME OPTION...: a Multi-STGAE row with these `handsteady filter` options.
+# extra NAME OPTION...: a Multi-STGAE row with these `handsteady filter` options (the
+# model among them).
 extra() {
   local m=$1; shift
-  $hs filter --in "$d/noisy.csv" --out "$d/$m.csv" --method stgae "${model[@]}" "$@" >/dev/null
-  $hs filter --in "$d/noisy.csv" --out "$d/${m}_h50.csv" --method stgae "${model[@]}" "$@" --horizon-ms 50 >/dev/null
+  $hs filter --in "$d/noisy.csv" --out "$d/$m.csv" --method stgae "$@" >/dev/null
+  $hs filter --in "$d/noisy.csv" --out "$d/${m}_h50.csv" --method stgae "$@" --horizon-ms 50 >/dev/null
   den+=(--in "$m=$d/$m.csv"); pre+=(--in "$m=$d/${m}_h50.csv")
 }
 for preset in tracker paper tremor; do
@@ -51,15 +51,11 @@ for preset in tracker paper tremor; do
     $hs filter --in "$d/noisy.csv" --out "$d/${m}_h50.csv" --method "$m" "${opt[@]}" --horizon-ms 50 >/dev/null
     den+=(--in "$m=$d/$m.csv"); pre+=(--in "$m=$d/${m}_h50.csv")
   done
-  [ "${HS_FPHA_UNBOUNDED:-0}" = 1 ] && [ $has_stgae = 1 ] && extra stgae-unbounded --unbounded
-  [ "${HS_FPHA_NOPALMFIT:-0}" = 1 ] && [ $has_stgae = 1 ] && extra stgae-nopalmfit --no-palm-fit
-  [ "${HS_FPHA_SMOOTHED:-0}" = 1 ] && [ $has_stgae = 1 ] && extra stgae-smoothed --smooth-predictions
-  [ "${HS_FPHA_TREMOR:-0}" = 1 ] && [ $has_stgae = 1 ] && extra stgae-tremor --tremor-cancel
-  if [ -n "${HS_CENTRED_MODEL:-}" ]; then
-    own=("${model[@]}"); model=(--model "$HS_CENTRED_MODEL")
-    extra stgae-centred-window --offline
-    model=("${own[@]}")
-  fi
+  [ "${HS_FPHA_UNBOUNDED:-0}" = 1 ] && [ $has_stgae = 1 ] && extra stgae-unbounded "${model[@]}" --unbounded
+  [ "${HS_FPHA_NOPALMFIT:-0}" = 1 ] && [ $has_stgae = 1 ] && extra stgae-nopalmfit "${model[@]}" --no-palm-fit
+  [ "${HS_FPHA_SMOOTHED:-0}" = 1 ] && [ $has_stgae = 1 ] && extra stgae-smoothed "${model[@]}" --smooth-predictions
+  [ "${HS_FPHA_TREMOR:-0}" = 1 ] && [ $has_stgae = 1 ] && extra stgae-tremor "${model[@]}" --tremor-cancel
+  [ -n "${HS_CENTRED_MODEL:-}" ] && extra stgae-centred-window --offline --model "$HS_CENTRED_MODEL"
   echo "#### \`$preset\` preset: denoising (H = 0)"
   $hs compare --truth "$out/clean.csv" "${den[@]}"
   echo
