@@ -123,6 +123,49 @@ TEST_CASE("InputNoise: correlated per-joint jitter shows in the bones, a row's j
   for (int k = 0; k < kJointCount; ++k) CHECK(j.noise2(k) == 0.0);
 }
 
+TEST_CASE("InputNoise: a row is a jump only beyond what the noise explains; outliers do not inflate the noise") {
+  // White noise alone leaves every row ~4.5 noise RMS from the quadratic through the rows
+  // before (20 E|n|^2): that is not a jump, or the trust region's radius would be the
+  // row's residual on every row (it was, until 2026-11-27). A 30 mm outlier is one, and it
+  // neither raises the noise measured for the rows after it nor hides the next outlier
+  // (with the clipping alone, 4 of 26 were found and the noise read 2.9 x).
+  std::mt19937_64 rng(11);
+  const auto times = irregular_times(6.0, rng);
+  std::normal_distribution<double> noise(0.0, 0.001);  // 1 mm per axis: E|n|^2 = 3 mm^2
+  const int tip = hs::idx(hs::Joint::IndexTip);
+  InputNoise white, spiky;
+  int rows = 0, white_jumps = 0, outliers = 0, outliers_found = 0;
+  double spiky_noise2 = 0.0, white_noise2 = 0.0, found_sum = 0.0;
+  for (size_t i = 0; i < times.size(); ++i) {
+    const hs::Pose p = hs::test::jittered(writing_hand(times[i]), rng, noise);
+    white.push(times[i], frame_of(p));
+    hs::Pose q = p;
+    const bool outlier = i >= 30 && i % 20 == 0;
+    if (outlier) q(tip, 0) += 0.03;
+    spiky.push(times[i], frame_of(q));
+    if (i < 30) continue;
+    ++rows;
+    for (int j = 0; j < kJointCount; ++j) white_jumps += white.jump(j) > 0.0;
+    if (outlier) {
+      ++outliers;
+      outliers_found += spiky.jump(tip) > 0.0;
+      found_sum += spiky.jump(tip);
+    }
+    white_noise2 += white.noise2(tip);
+    spiky_noise2 += spiky.noise2(tip);
+  }
+  const double jump_share = static_cast<double>(white_jumps) / (rows * kJointCount);
+  const double inflation = std::sqrt(spiky_noise2 / white_noise2);
+  MESSAGE("1 mm white jitter: " << 100.0 * jump_share << " % of joint-rows called jumps; 30 mm outliers every 20 rows: "
+                                << outliers_found << " of " << outliers << " found (mean jump " << found_sum / outliers_found * 1e3
+                                << " mm), the index tip's measured noise " << inflation << " x that without them");
+  CHECK(jump_share < 0.03);
+  // The residual carries ~4.5 noise RMS (7.7 mm here), so a 30 mm outlier can hide in it.
+  CHECK(outliers_found >= 0.9 * outliers);
+  CHECK(found_sum / outliers_found == doctest::Approx(0.03).epsilon(0.2));
+  CHECK(inflation < 1.3);  // unclipped, each outlier's residuals would make it ~4 x
+}
+
 TEST_CASE("PoseFilter adapter: at 90 Hz a clean hand writing fast is answered near its input") {
   // The trust region measured noise from the 30 Hz stream's second differences, which this
   // motion fills (the network was then free to move a clean hand by millimetres); measured

@@ -13,6 +13,12 @@ Eigen::Vector3d at(const float* p) noexcept { return Eigen::Vector3f(p[0], p[1],
 // The largest noise gain of an extrapolation still used: 1 + 3^2 + 3^2 + 1 = 20 on a
 // regular grid, 44 when the oldest interval is half the others.
 constexpr double kMaxGain2 = 200.0;
+// A squared sample clipped to kInputNoiseClip^2 times the running mean it enters, once
+// that mean has kInputNoiseWarmRows samples.
+double clipped(double sample, double mean, int count) noexcept {
+  if (count < kInputNoiseWarmRows) return sample;
+  return std::min(sample, kInputNoiseClip * kInputNoiseClip * std::max(mean, kInputNoiseFloor * kInputNoiseFloor));
+}
 }  // namespace
 
 void InputNoise::reset() noexcept {
@@ -24,6 +30,9 @@ void InputNoise::reset() noexcept {
   noise2_.fill(0.0);
   smooth_n_.fill(0);
   bone_n_.fill(0);
+  taint_.fill(0);
+  held_.fill(0);
+  out_.fill(false);
 }
 
 void InputNoise::push(double t, std::span<const float> x) noexcept {
@@ -40,31 +49,61 @@ void InputNoise::push(double t, std::span<const float> x) noexcept {
     // meaningless: no smoothness sample from this row.
     quad = gain2 < kMaxGain2;
   }
-  for (int j = 0; j < kJointCount; ++j) {
-    const auto ju = static_cast<size_t>(j);
+  // Smoothness, and which rows are jumps. A jump's residual, and those of the kQuadRows rows
+  // after it (their quadratic runs through it), are held out of the mean: one outlier would
+  // otherwise raise the measured noise for the next 30 rows, and with it the bar the next
+  // outlier must clear. Held out for more than kInputNoiseHeldRows rows in a row, they are
+  // no outliers but a noise that rose, and count (clipped).
+  constexpr int kQuadRows = 3;
+  for (size_t ju = 0; ju < kJointCount; ++ju) {
     const size_t o = 3 * ju;
     jump_[ju] = 0.0;
+    out_[ju] = false;
     const float* xj = x.data() + o;
     if (!finite_xyz(xj)) continue;
-    const Eigen::Vector3d p = at(xj);
     if (quad && finite_xyz(rows_[0].data() + o) && finite_xyz(rows_[1].data() + o) && finite_xyz(rows_[2].data() + o)) {
       const Eigen::Vector3d r =
-          p - l[0] * at(rows_[0].data() + o) - l[1] * at(rows_[1].data() + o) - l[2] * at(rows_[2].data() + o);
-      jump_[ju] = r.norm();
-      smooth2_[ju] += running_weight(smooth_n_[ju], kInputNoiseRows) * (r.squaredNorm() / gain2 - smooth2_[ju]);
+          at(xj) - l[0] * at(rows_[0].data() + o) - l[1] * at(rows_[1].data() + o) - l[2] * at(rows_[2].data() + o);
+      // Against the noise measured before this row (an outlier must not explain itself).
+      const double r2 = r.squaredNorm();
+      const bool jumped = r2 > kInputNoiseJump * kInputNoiseJump * gain2 * noise2_[ju];
+      const bool suspect = jumped || taint_[ju] > 0;
+      taint_[ju] = jumped ? kQuadRows : std::max(taint_[ju] - 1, 0);
+      if (jumped) jump_[ju] = std::sqrt(r2);
+      if (suspect && held_[ju] < kInputNoiseHeldRows) {
+        ++held_[ju];
+        out_[ju] = jumped;
+        continue;
+      }
+      if (!suspect) held_[ju] = 0;
+      const double sample = clipped(r2 / gain2, smooth2_[ju], smooth_n_[ju]);
+      smooth2_[ju] += running_weight(smooth_n_[ju], kInputNoiseRows) * (sample - smooth2_[ju]);
     }
+  }
+  // Rigidity: each bone's length against its running mean, but not in a row where either
+  // end is a jump held out above.
+  for (size_t ju = 0; ju < kJointCount; ++ju) {
     const int parent = kXrParent[ju];
     if (parent < 0) continue;
-    const float* xp = x.data() + 3 * static_cast<size_t>(parent);
-    if (!finite_xyz(xp)) continue;
-    const double len = (p - at(xp)).norm();
+    const auto pu = static_cast<size_t>(parent);
+    const float* xj = x.data() + 3 * ju;
+    const float* xp = x.data() + 3 * pu;
+    if (!finite_xyz(xj) || !finite_xyz(xp) || out_[ju] || out_[pu]) continue;
+    const double len = (at(xj) - at(xp)).norm();
     // The spread about the mean before this row (a mean that follows the sample would
     // hide it); the first row only starts the mean.
     if (bone_n_[ju] > 0) {
       const double d = len - bone_mean_[ju];
-      bone_var_[ju] += (1.0 / std::min<double>(bone_n_[ju], kInputNoiseRows)) * (d * d - bone_var_[ju]);
+      const double sample = clipped(d * d, bone_var_[ju], bone_n_[ju] - 1);
+      bone_var_[ju] += (1.0 / std::min<double>(bone_n_[ju], kInputNoiseRows)) * (sample - bone_var_[ju]);
     }
-    bone_mean_[ju] += running_weight(bone_n_[ju], kInputNoiseRows) * (len - bone_mean_[ju]);
+    // The mean's step clipped the same way: an outlier's stretched bone moves it little.
+    double step = len - bone_mean_[ju];
+    if (bone_n_[ju] > kInputNoiseWarmRows) {
+      const double lim = kInputNoiseClip * std::sqrt(std::max(bone_var_[ju], kInputNoiseFloor * kInputNoiseFloor));
+      step = std::clamp(step, -lim, lim);
+    }
+    bone_mean_[ju] += running_weight(bone_n_[ju], kInputNoiseRows) * step;
   }
   // A bone's length varies by the noise of both ends along it: 2 sigma^2 per axis with
   // sigma each; E|n|^2 = 3 sigma^2 = 1.5 times that variance.

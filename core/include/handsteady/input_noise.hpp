@@ -18,6 +18,21 @@ namespace hs {
 
 // Rows in the running means (squared residuals, bone lengths and their spread).
 inline constexpr double kInputNoiseRows = 30.0;
+// A row's residual from the quadratic is a jump (an outlier) only beyond this many RMS of
+// what the noise measured before it gives (white noise gives (1 + sum of the weights
+// squared) E|n|^2, about 20 E|n|^2: every row's residual is ~4.5 noise RMS; beyond 2 RMS,
+// under 1 % of white-noise rows). 2 rather than 3 on the benchmark's tuning split.
+inline constexpr double kInputNoiseJump = 2.0;
+// A sample enters the running means only up to this many RMS of the mean it enters, so one
+// outlier does not inflate the noise of the next 30 rows (after kInputNoiseWarmRows
+// samples; before them everything counts).
+inline constexpr double kInputNoiseClip = 3.0;
+inline constexpr int kInputNoiseWarmRows = 10;
+// A jump's residual and the 3 after it are held out of the means (an outlier of 1-3 rows
+// spoils up to 6); more rows than this in a row are a noise that rose, and count.
+inline constexpr int kInputNoiseHeldRows = 6;
+// The smallest RMS the clipping assumes (m): a clean input's estimate near 0 can still rise.
+inline constexpr double kInputNoiseFloor = 1e-4;
 
 class InputNoise {
  public:
@@ -26,8 +41,10 @@ class InputNoise {
   void push(double t, std::span<const float> x) noexcept;
   // E|n|^2 of joint j (m^2), 0 before any evidence.
   double noise2(int j) const noexcept { return noise2_[static_cast<size_t>(j)]; }
-  // |row - the quadratic through the rows before| of joint j at the last row (m; 0 when
-  // the joint lacked three rows before): a jump of this row alone (an outlier).
+  // |row - the quadratic through the rows before| of joint j at the last row (m) where it
+  // exceeds kInputNoiseJump times what the noise measured before this row explains: a
+  // jump of this row alone (an outlier). 0 otherwise, and when the joint lacked three rows
+  // before.
   double jump(int j) const noexcept { return jump_[static_cast<size_t>(j)]; }
   // Both for every joint (what CorrectionBound::apply takes).
   std::span<const double> noise2() const noexcept { return noise2_; }
@@ -40,6 +57,9 @@ class InputNoise {
   int have_ = 0;                                  // rows in rows_
   std::array<double, kJointCount> smooth2_{}, bone_mean_{}, bone_var_{}, jump_{}, noise2_{};
   std::array<int, kJointCount> smooth_n_{}, bone_n_{};
+  std::array<int, kJointCount> taint_{};  // rows still to come whose quadratic runs through a jump
+  std::array<int, kJointCount> held_{};   // residuals held out in a row
+  std::array<bool, kJointCount> out_{};   // this row is a jump held out (its bones too)
 };
 
 }  // namespace hs
