@@ -26,8 +26,9 @@ inline constexpr double kCorrectionNoiseFactor = 3.0;
 // With the noise measured at the input rate (InputNoise: motion does not feed it, so it is
 // not inflated the way the stream's second difference is), radius = max(this factor times
 // the joint's RMS noise, the row's own jump where it is one). Smaller is more accurate on
-// the benchmark's tuning split, larger steadier (the demo's ink jerk); 2 is the smallest
-// that keeps the Parkinsonian ink jerk within half of raw's (docs/STGAE.md "Trust region").
+// the benchmark's tuning split, larger steadier (the demo's Parkinsonian ink jerk, which
+// 1 takes over half of raw's and 1.5 keeps under by 2.6 %); 2 keeps it by 4 % for 1.7 %
+// of the tuning split's error (docs/STGAE.md "Trust region").
 inline constexpr double kMeasuredNoiseFactor = 2.0;
 inline constexpr double kCorrectionRoughnessFrames = 15.0;
 inline constexpr double kCorrectionBiasFrames = 30.0;

@@ -7,7 +7,8 @@
 //   third derivative times the interval cubed, white noise in full;
 // - rigidity: each bone's length against its running mean; a hand's bones do not stretch
 //   however it moves, noise on either end of a bone does, correlated or not.
-// The estimate is the larger of the two: E|n|^2 of the joint, m^2. Per hand, per input row,
+// The estimate is the larger of the two: E|n|^2 of the joint, m^2. A row far off the
+// quadratic is a jump (an outlier), held out of both with the rows it spoils. Per hand, per input row,
 // no allocation, noexcept. docs/STGAE.md "Trust region".
 #include "handsteady/skeleton.hpp"
 
