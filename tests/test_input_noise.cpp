@@ -123,7 +123,7 @@ TEST_CASE("InputNoise: correlated per-joint jitter shows in the bones, a row's j
   for (int k = 0; k < kJointCount; ++k) CHECK(j.noise2(k) == 0.0);
 }
 
-TEST_CASE("InputNoise: a row is a jump only beyond what the noise explains; outliers do not inflate the noise") {
+TEST_CASE("InputNoise: a row is a jump only beyond what the noise explains, and outliers do not inflate the noise") {
   // White noise alone leaves every row ~4.5 noise RMS from the quadratic through the rows
   // before (20 E|n|^2): that is not a jump, or the trust region's radius would be the
   // row's residual on every row (it was, until 2026-11-27). A 30 mm outlier is one, and it
