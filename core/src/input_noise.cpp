@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace hs {
 
@@ -13,11 +14,11 @@ Eigen::Vector3d at(const float* p) noexcept { return Eigen::Vector3f(p[0], p[1],
 // The largest noise gain of an extrapolation still used: 1 + 3^2 + 3^2 + 1 = 20 on a
 // regular grid, 44 when the oldest interval is half the others.
 constexpr double kMaxGain2 = 200.0;
-// A squared sample clipped to kInputNoiseClip^2 times the running mean it enters, once
-// that mean has kInputNoiseWarmRows samples.
-double clipped(double sample, double mean, int count) noexcept {
-  if (count < kInputNoiseWarmRows) return sample;
-  return std::min(sample, kInputNoiseClip * kInputNoiseClip * std::max(mean, kInputNoiseFloor * kInputNoiseFloor));
+// The largest squared sample a running mean of `count` samples takes: kInputNoiseClip^2
+// times the mean (at least the floor's), once it has kInputNoiseWarmRows samples.
+double clip_bound2(double mean, int count) noexcept {
+  if (count < kInputNoiseWarmRows) return std::numeric_limits<double>::infinity();
+  return kInputNoiseClip * kInputNoiseClip * std::max(mean, kInputNoiseFloor * kInputNoiseFloor);
 }
 }  // namespace
 
@@ -32,7 +33,6 @@ void InputNoise::reset() noexcept {
   bone_n_.fill(0);
   taint_.fill(0);
   held_.fill(0);
-  out_.fill(false);
 }
 
 void InputNoise::push(double t, std::span<const float> x) noexcept {
@@ -55,10 +55,10 @@ void InputNoise::push(double t, std::span<const float> x) noexcept {
   // outlier must clear. Held out for more than kInputNoiseHeldRows rows in a row, they are
   // no outliers but a noise that rose, and count (clipped).
   constexpr int kQuadRows = 3;
+  std::array<bool, kJointCount> out{};  // this row is a jump held out (its bones too)
   for (size_t ju = 0; ju < kJointCount; ++ju) {
     const size_t o = 3 * ju;
     jump_[ju] = 0.0;
-    out_[ju] = false;
     const float* xj = x.data() + o;
     if (!finite_xyz(xj)) continue;
     if (quad && finite_xyz(rows_[0].data() + o) && finite_xyz(rows_[1].data() + o) && finite_xyz(rows_[2].data() + o)) {
@@ -72,11 +72,11 @@ void InputNoise::push(double t, std::span<const float> x) noexcept {
       if (jumped) jump_[ju] = std::sqrt(r2);
       if (suspect && held_[ju] < kInputNoiseHeldRows) {
         ++held_[ju];
-        out_[ju] = jumped;
+        out[ju] = jumped;
         continue;
       }
       if (!suspect) held_[ju] = 0;
-      const double sample = clipped(r2 / gain2, smooth2_[ju], smooth_n_[ju]);
+      const double sample = std::min(r2 / gain2, clip_bound2(smooth2_[ju], smooth_n_[ju]));
       smooth2_[ju] += running_weight(smooth_n_[ju], kInputNoiseRows) * (sample - smooth2_[ju]);
     }
   }
@@ -88,22 +88,19 @@ void InputNoise::push(double t, std::span<const float> x) noexcept {
     const auto pu = static_cast<size_t>(parent);
     const float* xj = x.data() + 3 * ju;
     const float* xp = x.data() + 3 * pu;
-    if (!finite_xyz(xj) || !finite_xyz(xp) || out_[ju] || out_[pu]) continue;
+    if (!finite_xyz(xj) || !finite_xyz(xp) || out[ju] || out[pu]) continue;
     const double len = (at(xj) - at(xp)).norm();
     // The spread about the mean before this row (a mean that follows the sample would
-    // hide it); the first row only starts the mean.
+    // hide it); the first row only starts the mean. The spread's sample and then the mean's
+    // step are clipped alike (the spread has bone_n_ - 1 samples before this row): an
+    // outlier's stretched bone moves neither much.
+    const double d = len - bone_mean_[ju];
     if (bone_n_[ju] > 0) {
-      const double d = len - bone_mean_[ju];
-      const double sample = clipped(d * d, bone_var_[ju], bone_n_[ju] - 1);
+      const double sample = std::min(d * d, clip_bound2(bone_var_[ju], bone_n_[ju] - 1));
       bone_var_[ju] += (1.0 / std::min<double>(bone_n_[ju], kInputNoiseRows)) * (sample - bone_var_[ju]);
     }
-    // The mean's step clipped the same way: an outlier's stretched bone moves it little.
-    double step = len - bone_mean_[ju];
-    if (bone_n_[ju] > kInputNoiseWarmRows) {
-      const double lim = kInputNoiseClip * std::sqrt(std::max(bone_var_[ju], kInputNoiseFloor * kInputNoiseFloor));
-      step = std::clamp(step, -lim, lim);
-    }
-    bone_mean_[ju] += running_weight(bone_n_[ju], kInputNoiseRows) * step;
+    const double lim = std::sqrt(clip_bound2(bone_var_[ju], bone_n_[ju] - 1));
+    bone_mean_[ju] += running_weight(bone_n_[ju], kInputNoiseRows) * std::clamp(d, -lim, lim);
   }
   // A bone's length varies by the noise of both ends along it: 2 sigma^2 per axis with
   // sigma each; E|n|^2 = 3 sigma^2 = 1.5 times that variance.

@@ -8,8 +8,8 @@
 // - rigidity: each bone's length against its running mean; a hand's bones do not stretch
 //   however it moves, noise on either end of a bone does, correlated or not.
 // The estimate is the larger of the two: E|n|^2 of the joint, m^2. A row far off the
-// quadratic is a jump (an outlier), held out of both with the rows it spoils. Per hand, per input row,
-// no allocation, noexcept. docs/STGAE.md "Trust region".
+// quadratic is a jump (an outlier), held out of both with the rows it spoils. Per hand,
+// per input row, no allocation, noexcept. docs/STGAE.md "Trust region".
 #include "handsteady/skeleton.hpp"
 
 #include <array>
@@ -60,7 +60,6 @@ class InputNoise {
   std::array<int, kJointCount> smooth_n_{}, bone_n_{};
   std::array<int, kJointCount> taint_{};  // rows still to come whose quadratic runs through a jump
   std::array<int, kJointCount> held_{};   // residuals held out in a row
-  std::array<bool, kJointCount> out_{};   // this row is a jump held out (its bones too)
 };
 
 }  // namespace hs
