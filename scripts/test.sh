@@ -20,8 +20,10 @@ run() {  # build-dir [cmake args...]; HS_TARGETS limits what is built, HS_CTEST_
 # Debug information as line tables only (-g1) in all four builds: backtraces and sanitizer
 # reports still name file and line, and full -g (most of what the compiler wrote for the
 # Eigen and libtorch code) made this script take 105 CPU-min and 61-65 min on 2 cores,
-# against 68 and 40 (2026-11-27, the same host).
-run build/test -DCMAKE_BUILD_TYPE=RelWithDebInfo "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O2 -g1 -DNDEBUG"
+# against 68 and 40 (2026-11-27, the same host). The optimised builds (this one and the
+# fuzzers) share their flags.
+optimised="-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O2 -g1 -DNDEBUG"
+run build/test -DCMAKE_BUILD_TYPE=RelWithDebInfo "$optimised"
 if [ "${1:-}" != "--quick" ]; then
   export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
   export LSAN_OPTIONS=suppressions=$root/tests/lsan.supp
@@ -42,7 +44,7 @@ if [ "${1:-}" != "--quick" ]; then
   # (tests/fuzz/corpus/<name>), HS_FUZZ_SECONDS each (default 60 s for the model loader,
   # 30 s for the others: 3.5 min in all).
   cmake -S . -B build/fuzz -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=RelWithDebInfo -DHS_WERROR=ON \
-    "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O2 -g1 -DNDEBUG" \
+    "$optimised" \
     -DHS_FUZZ=ON -DHS_SANITIZE=address,undefined -DHS_BUILD_TRAINING=OFF -DHS_BUILD_DEMO=OFF >/dev/null
   fuzzers=(hsm_loader track_csv fpha mrtk bvh layer_config train_config)
   cmake --build build/fuzz -j"$jobs" --target "${fuzzers[@]/#/fuzz_}"

@@ -166,6 +166,49 @@ TEST_CASE("InputNoise: a row is a jump only beyond what the noise explains, and 
   CHECK(inflation < 1.3);  // unclipped, each outlier's residuals would make it ~4 x
 }
 
+TEST_CASE("InputNoise: a joint that moves with its parent moved with the hand, one that leaves it jumped") {
+  // A hand sweeping to and fro as a whole at 0.24 m/s, turning back at once (a 2 cm
+  // triangle wave at 3 Hz: at each turn the third difference is ~5 mm, a stroke's sharp
+  // turn or the kink a linear resampling puts between a tracker's rows), over a jitter of
+  // 0.1 mm per axis: every joint moves with its parent, so no row is a jump. Judged against
+  // the quadratic alone, every joint was one at every turn, and the trust region let the
+  // network move it by its whole residual. A 10 mm outlier of the index's intermediate
+  // joint, which leaves its parent, still is one, and its child, which stays with the
+  // hand, is not.
+  std::mt19937_64 rng(5);
+  const auto times = irregular_times(4.0, rng);
+  std::normal_distribution<double> noise(0.0, 0.0001);
+  const int mid = hs::idx(hs::Joint::IndexIntermediate), child = hs::idx(hs::Joint::IndexDistal);
+  InputNoise shaking, spiky;
+  int rows = 0, shaking_jumps = 0, outliers = 0, found = 0, child_jumps = 0;
+  for (size_t i = 0; i < times.size(); ++i) {
+    const double t = times[i];
+    const double phase = 3.0 * t - std::floor(3.0 * t);  // of the 3 Hz sweep
+    const Eigen::RowVector3d shake(0.02 * (phase < 0.5 ? 4.0 * phase - 1.0 : 3.0 - 4.0 * phase), 0.0, 0.0);
+    const hs::Pose p = hs::test::jittered((writing_hand(t).rowwise() + shake).eval(), rng, noise);
+    shaking.push(t, frame_of(p));
+    hs::Pose q = p;
+    const bool outlier = i >= 30 && i % 20 == 0;
+    if (outlier) q(mid, 2) += 0.01;
+    spiky.push(t, frame_of(q));
+    if (i < 30) continue;
+    ++rows;
+    for (int j = 0; j < kJointCount; ++j) shaking_jumps += shaking.jump(j) > 0.0;
+    if (outlier) {
+      ++outliers;
+      found += spiky.jump(mid) > 0.0;
+      child_jumps += spiky.jump(child) > 0.0;
+    }
+  }
+  const double share = static_cast<double>(shaking_jumps) / (rows * kJointCount);
+  MESSAGE("a hand sweeping 2 cm to and fro at 3 Hz: " << 100.0 * share << " % of joint-rows called jumps; 10 mm outliers of one joint: "
+                                          << found << " of " << outliers << " found, their child called a jump " << child_jumps
+                                          << " times");
+  CHECK(share < 0.02);
+  CHECK(found >= 0.9 * outliers);
+  CHECK(child_jumps <= outliers / 10);
+}
+
 TEST_CASE("PoseFilter adapter: at 90 Hz a clean hand writing fast is answered near its input") {
   // The trust region measured noise from the 30 Hz stream's second differences, which this
   // motion fills (the network was then free to move a clean hand by millimetres); measured

@@ -14,6 +14,23 @@ Eigen::Vector3d at(const float* p) noexcept { return Eigen::Vector3f(p[0], p[1],
 // The largest noise gain of an extrapolation still used: 1 + 3^2 + 3^2 + 1 = 20 on a
 // regular grid, 44 when the oldest interval is half the others.
 constexpr double kMaxGain2 = 200.0;
+// The joint a jump is judged against: its parent, the wrist's the palm.
+constexpr std::array<int, kJointCount> kJumpReference = [] {
+  std::array<int, kJointCount> r{};
+  for (int j = 0; j < kJointCount; ++j) r[static_cast<size_t>(j)] = kXrParent[static_cast<size_t>(j)];
+  r[static_cast<size_t>(idx(Joint::Wrist))] = idx(Joint::Palm);
+  return r;
+}();
+// Parents before their children (the wrist is the palm's parent), so that a joint's
+// reference has been judged when the joint is.
+constexpr std::array<int, kJointCount> kJumpOrder = [] {
+  std::array<int, kJointCount> o{};
+  size_t n = 0;
+  o[n++] = idx(Joint::Wrist);
+  for (int j = 0; j < kJointCount; ++j)
+    if (j != idx(Joint::Wrist)) o[n++] = j;
+  return o;
+}();
 // The largest squared sample a running mean of `count` samples takes: kInputNoiseClip^2
 // times the mean (at least the floor's), once it has kInputNoiseWarmRows samples.
 double clip_bound2(double mean, int count) noexcept {
@@ -49,36 +66,49 @@ void InputNoise::push(double t, std::span<const float> x) noexcept {
     // meaningless: no smoothness sample from this row.
     quad = gain2 < kMaxGain2;
   }
-  // Smoothness, and which rows are jumps. A jump's residual, and those of the kQuadRows rows
-  // after it (their quadratic runs through it), are held out of the mean: one outlier would
-  // otherwise raise the measured noise for the next 30 rows, and with it the bar the next
-  // outlier must clear. Held out for more than kInputNoiseHeldRows rows in a row, they are
-  // no outliers but a noise that rose, and count (clipped).
-  constexpr int kQuadRows = 3;
-  std::array<bool, kJointCount> out{};  // this row is a jump held out (its bones too)
+  // Each joint's residual from the quadratic (NaN: none in this row).
+  std::array<Eigen::Vector3d, kJointCount> res;
   for (size_t ju = 0; ju < kJointCount; ++ju) {
     const size_t o = 3 * ju;
     jump_[ju] = 0.0;
+    res[ju].setConstant(std::numeric_limits<double>::quiet_NaN());
     const float* xj = x.data() + o;
-    if (!finite_xyz(xj)) continue;
-    if (quad && finite_xyz(rows_[0].data() + o) && finite_xyz(rows_[1].data() + o) && finite_xyz(rows_[2].data() + o)) {
-      const Eigen::Vector3d r =
-          at(xj) - l[0] * at(rows_[0].data() + o) - l[1] * at(rows_[1].data() + o) - l[2] * at(rows_[2].data() + o);
-      // Against the noise measured before this row (an outlier must not explain itself).
-      const double r2 = r.squaredNorm();
-      const bool jumped = r2 > kInputNoiseJump * kInputNoiseJump * gain2 * noise2_[ju];
-      const bool suspect = jumped || taint_[ju] > 0;
-      taint_[ju] = jumped ? kQuadRows : std::max(taint_[ju] - 1, 0);
-      if (jumped) jump_[ju] = std::sqrt(r2);
-      if (suspect && held_[ju] < kInputNoiseHeldRows) {
-        ++held_[ju];
-        out[ju] = jumped;
-        continue;
-      }
-      if (!suspect) held_[ju] = 0;
-      const double sample = std::min(r2 / gain2, clip_bound2(smooth2_[ju], smooth_n_[ju]));
-      smooth2_[ju] += running_weight(smooth_n_[ju], kInputNoiseRows) * (sample - smooth2_[ju]);
+    if (quad && finite_xyz(xj) && finite_xyz(rows_[0].data() + o) && finite_xyz(rows_[1].data() + o) &&
+        finite_xyz(rows_[2].data() + o))
+      res[ju] = at(xj) - l[0] * at(rows_[0].data() + o) - l[1] * at(rows_[1].data() + o) - l[2] * at(rows_[2].data() + o);
+  }
+  // Smoothness, and which rows are jumps, parents first. A jump's residual, and those of the
+  // kQuadRows rows after it (their quadratic runs through it), are held out of the mean:
+  // one outlier would otherwise raise the measured noise for the next 30 rows, and with it
+  // the bar the next outlier must clear. Held out for more than kInputNoiseHeldRows rows in
+  // a row, they are no outliers but a noise that rose, and count (clipped).
+  constexpr int kQuadRows = 3;
+  std::array<bool, kJointCount> out{};  // this row is a jump held out (its bones too)
+  for (const int j : kJumpOrder) {
+    const auto ju = static_cast<size_t>(j);
+    if (!res[ju].allFinite()) continue;
+    // Against the noise measured before this row (an outlier must not explain itself).
+    const double r2 = res[ju].squaredNorm();
+    const double bar2 = kInputNoiseJump * kInputNoiseJump * gain2;
+    bool jumped = r2 > bar2 * noise2_[ju];
+    // A joint whose residual its reference joint (no jump) mostly shares moved with the
+    // hand, and is a jump only if it also left the reference: a stroke's sharp turn is the
+    // whole finger's, an outlier one joint's. A reference that shares little of it (say
+    // white noise next to an outlier) leaves the question to the joint's own residual.
+    const auto ru = static_cast<size_t>(kJumpReference[ju]);
+    if (jumped && res[ru].allFinite() && jump_[ru] == 0.0 && res[ru].dot(res[ju]) > kInputNoiseShared * r2)
+      jumped = (res[ju] - res[ru]).squaredNorm() > bar2 * (noise2_[ju] + noise2_[ru]);
+    const bool suspect = jumped || taint_[ju] > 0;
+    taint_[ju] = jumped ? kQuadRows : std::max(taint_[ju] - 1, 0);
+    if (jumped) jump_[ju] = std::sqrt(r2);
+    if (suspect && held_[ju] < kInputNoiseHeldRows) {
+      ++held_[ju];
+      out[ju] = jumped;
+      continue;
     }
+    if (!suspect) held_[ju] = 0;
+    const double sample = std::min(r2 / gain2, clip_bound2(smooth2_[ju], smooth_n_[ju]));
+    smooth2_[ju] += running_weight(smooth_n_[ju], kInputNoiseRows) * (sample - smooth2_[ju]);
   }
   // Rigidity: each bone's length against its running mean, but not in a row where either
   // end is a jump held out above.

@@ -8,7 +8,8 @@
 // - rigidity: each bone's length against its running mean; a hand's bones do not stretch
 //   however it moves, noise on either end of a bone does, correlated or not.
 // The estimate is the larger of the two: E|n|^2 of the joint, m^2. A row far off the
-// quadratic is a jump (an outlier), held out of both with the rows it spoils. Per hand,
+// quadratic is a jump (an outlier), held out of both with the rows it spoils, unless the
+// joint moved with its parent: fast motion moves a finger, an outlier one joint. Per hand,
 // per input row, no allocation, noexcept. docs/STGAE.md "Trust region".
 #include "handsteady/skeleton.hpp"
 
@@ -24,6 +25,11 @@ inline constexpr double kInputNoiseRows = 30.0;
 // squared) E|n|^2, about 20 E|n|^2: every row's residual is ~4.5 noise RMS; beyond 2 RMS,
 // under 1 % of white-noise rows). 2 rather than 3 on the benchmark's tuning split.
 inline constexpr double kInputNoiseJump = 2.0;
+// A jump's residual mostly shared with its reference joint's (the parent; the wrist's, the
+// palm), which is no jump, is the hand's motion: beyond this share (the reference's residual
+// projected on the joint's, over the joint's), the joint is a jump only if its residual less
+// the reference's exceeds kInputNoiseJump RMS of the two joints' noise.
+inline constexpr double kInputNoiseShared = 0.5;
 // A sample enters the running means only up to this many RMS of the mean it enters, so one
 // outlier does not inflate the noise of the next 30 rows (after kInputNoiseWarmRows
 // samples; before them everything counts).
