@@ -31,11 +31,7 @@ void apply_shape(std::vector<Pose>& poses, const ShapeVariant& shape, uint64_t s
         // whose parent is missing moves with its nearest tracked ancestor.
         std::array<Eigen::Vector3d, kJointCount> moved;
         moved.fill(Eigen::Vector3d::Zero());
-        std::array<int, kJointCount> order{};
-        order[0] = wrist;
-        for (int j = 0, k = 1; j < kJointCount; ++j)
-          if (j != wrist) order[static_cast<size_t>(k++)] = j;  // parents come first (palm's is the wrist)
-        for (const int j : order) {
+        for (const int j : kXrParentFirst) {
           const int par = kXrParent[static_cast<size_t>(j)];
           if (par < 0 || !joint_tracked(in, j)) continue;
           if (!joint_tracked(in, par)) {

@@ -14,22 +14,15 @@ Eigen::Vector3d at(const float* p) noexcept { return Eigen::Vector3f(p[0], p[1],
 // The largest noise gain of an extrapolation still used: 1 + 3^2 + 3^2 + 1 = 20 on a
 // regular grid, 44 when the oldest interval is half the others.
 constexpr double kMaxGain2 = 200.0;
-// The joint a jump is judged against: its parent, the wrist's the palm.
+// The joint a jump is judged against: its parent, the wrist's the palm. Joints are judged
+// parents first (kXrParentFirst), so a reference has been judged before its joint, except
+// the palm before the wrist: the wrist (judged first) is weighed against the palm's
+// residual alone.
 constexpr std::array<int, kJointCount> kJumpReference = [] {
   std::array<int, kJointCount> r{};
   for (int j = 0; j < kJointCount; ++j) r[static_cast<size_t>(j)] = kXrParent[static_cast<size_t>(j)];
   r[static_cast<size_t>(idx(Joint::Wrist))] = idx(Joint::Palm);
   return r;
-}();
-// Parents before their children (the wrist is the palm's parent), so that a joint's
-// reference has been judged when the joint is.
-constexpr std::array<int, kJointCount> kJumpOrder = [] {
-  std::array<int, kJointCount> o{};
-  size_t n = 0;
-  o[n++] = idx(Joint::Wrist);
-  for (int j = 0; j < kJointCount; ++j)
-    if (j != idx(Joint::Wrist)) o[n++] = j;
-  return o;
 }();
 // The largest squared sample a running mean of `count` samples takes: kInputNoiseClip^2
 // times the mean (at least the floor's), once it has kInputNoiseWarmRows samples.
@@ -84,12 +77,12 @@ void InputNoise::push(double t, std::span<const float> x) noexcept {
   // a row, they are no outliers but a noise that rose, and count (clipped).
   constexpr int kQuadRows = 3;
   std::array<bool, kJointCount> out{};  // this row is a jump held out (its bones too)
-  for (const int j : kJumpOrder) {
+  const double bar2 = kInputNoiseJump * kInputNoiseJump * gain2;  // the jump bar over E|n|^2
+  for (const int j : kXrParentFirst) {
     const auto ju = static_cast<size_t>(j);
     if (!res[ju].allFinite()) continue;
     // Against the noise measured before this row (an outlier must not explain itself).
     const double r2 = res[ju].squaredNorm();
-    const double bar2 = kInputNoiseJump * kInputNoiseJump * gain2;
     bool jumped = r2 > bar2 * noise2_[ju];
     // A joint whose residual its reference joint (no jump) mostly shares moved with the
     // hand, and is a jump only if it also left the reference: a stroke's sharp turn is the

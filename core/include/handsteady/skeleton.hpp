@@ -38,6 +38,26 @@ inline constexpr std::array<int, kJointCount> kXrParent = {
     1,  21, 22, 23, 24,    // little
 };
 
+// The joints with every parent before its children: the wrist, then the rest in index
+// order (every other parent's index is below its children's; the palm's is the wrist).
+inline constexpr std::array<int, kJointCount> kXrParentFirst = [] {
+  std::array<int, kJointCount> o{};
+  size_t n = 0;
+  o[n++] = idx(Joint::Wrist);
+  for (int j = 0; j < kJointCount; ++j)
+    if (j != idx(Joint::Wrist)) o[n++] = j;
+  return o;
+}();
+static_assert([] {
+  std::array<bool, kJointCount> seen{};
+  for (const int j : kXrParentFirst) {
+    const int p = kXrParent[static_cast<size_t>(j)];
+    if (p >= 0 && !seen[static_cast<size_t>(p)]) return false;
+    seen[static_cast<size_t>(j)] = true;
+  }
+  return true;
+}(), "kXrParentFirst must list every parent before its children");
+
 // A fingertip: a joint no other joint hangs off.
 constexpr bool is_tip(int j) {
   if (j < 0 || j >= kJointCount || j == idx(Joint::Palm)) return false;
