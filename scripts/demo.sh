@@ -7,7 +7,8 @@
 # once with the shipped Multi-STGAE model (the layer's default) and once with One Euro,
 # leaving composite PNGs, frames, trajectory plots and a metrics summary in out/demo/.
 # With ../shared/data present the hand pose comes from a real HoloLens 2 recording and
-# the FPHA subject 5 table is computed too (HS_DEMO_FPHA=0 skips it).
+# the FPHA subject 5 table is computed too (HS_DEMO_FPHA=0 skips it). HS_DEMO_MODEL=FILE.hsm
+# runs the layer, the app's prediction line and the FPHA table with that model instead of the shipped one.
 # Usage: scripts/demo.sh [extra handsteady_demo options, e.g. --window]
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -44,6 +45,7 @@ export HANDSTEADY_SHIM_TRACK=$out/handwriting.csv HANDSTEADY_SHIM_CLOCK=sim:11.1
 # as it does in real time when it keeps up (docs/OPENXR_LAYER.md "Worker").
 export HANDSTEADY_WORKER=${HANDSTEADY_WORKER:-lockstep}
 unset XR_ENABLE_API_LAYERS HANDSTEADY_CONFIG HANDSTEADY_MODEL
+if [ -n "${HS_DEMO_MODEL:-}" ]; then export HANDSTEADY_MODEL; HANDSTEADY_MODEL=$(realpath "$HS_DEMO_MODEL"); fi
 # A frame PNG every second; with ffmpeg installed every 3rd frame, made into a 30 fps video.
 every=90
 if command -v ffmpeg >/dev/null; then every=3; fi
