@@ -13,6 +13,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -97,14 +98,29 @@ void run_benchmark(const BenchmarkOptions& o, const std::string& command) {
   bench::tune_oneeuro(sets, run, report);
   auto methods = bench::classical_methods(report.tuned);
   const auto classical = static_cast<std::ptrdiff_t>(methods.size());
-  for (const auto& [label, file] : model_files) {
-    std::shared_ptr<const StgaeModel> model = load_hsm(file);  // InputError naming the file
-    if (model->config.padding != StgaePadding::Causal)
-      throw InputError({file.string(), 0, "--model"}, "a centred model cannot stream; the benchmark runs causally");
+  for (const auto& [label, spec] : model_files) {
+    // FILE.hsm, or FILE.hsm+FILE2.hsm...: models for different input rates (rate_choice.hpp).
+    std::vector<std::shared_ptr<const StgaeModel>> models;
+    const std::string files = spec.string();
+    for (size_t from = 0; from <= files.size();) {
+      const size_t plus = std::min(files.find('+', from), files.size());
+      const std::string file = files.substr(from, plus - from);
+      if (file.empty()) throw InputError({"", 0, "--model"}, "expects LABEL=FILE.hsm[+FILE.hsm...], got '" + files + "'");
+      models.push_back(load_hsm(file));  // InputError naming the file
+      if (models.back()->config.padding != StgaePadding::Causal)
+        throw InputError({file, 0, "--model"}, "a centred model cannot stream; the benchmark runs causally");
+      from = plus + 1;
+    }
     FilterConfig c;
-    c.method = network_method(*model);
-    c.stgae.model = model;
-    c.stgae.source = file.string();
+    c.method = network_method(*models.front());
+    c.stgae.model = models.front();
+    c.stgae.rate_models.assign(models.begin() + 1, models.end());
+    c.stgae.source = files;
+    try {
+      (void)make_filter(c);  // the models fit together (family, distinct rates)
+    } catch (const std::invalid_argument& e) {
+      throw InputError({files, 0, "--model"}, e.what());
+    }
     // The model's row, then each asked-for variant of it (LABEL-suffix): c changed by `vary`.
     const auto add = [&](const std::string& suffix, auto vary) {
       FilterConfig v = c;
@@ -117,7 +133,7 @@ void run_benchmark(const BenchmarkOptions& o, const std::string& command) {
     if (o.smoothed) add("-smoothed", [](FilterConfig& v) { v.stgae.smooth = true; });
     if (o.unbounded) add("-unbounded", [](FilterConfig& v) { v.stgae.bounded = false; });
     if (o.tremor) add("-tremor", [](FilterConfig& v) { v.tremor_cancel = true; });
-    report.notes.push_back(fmt::format("model {} = {}", label, file.string()));
+    report.notes.push_back(fmt::format("model {} = {}", label, files));
   }
   if (o.palm_fit) {  // the fit alone, in front of the plain baselines
     std::vector<bench::Method> fitted;
@@ -150,7 +166,8 @@ void setup_benchmark(CLI::App& app) {
   auto* sub = app.add_subcommand("benchmark", "Score filters and models on the project's fixed, seeded grid (docs/BENCHMARK.md)");
   sub->add_option("--data", o->data, "The shared recordings folder")->capture_default_str();
   sub->add_option("--out", o->out, "Folder for benchmark.md, benchmark.json, curve.csv")->required();
-  sub->add_option("--model", o->models, "LABEL=FILE.hsm, a causal model to score (repeatable)");
+  sub->add_option("--model", o->models, "LABEL=FILE.hsm, a causal model to score (repeatable); LABEL=A.hsm+B.hsm: models at different frame rates, "
+                "each input run by the one whose rate suits it (docs/STGAE.md \"Models by input rate\")");
   sub->add_flag("--quiet", o->quiet, "No progress lines on stderr (stages, and the scoring every 10 %)");
   sub->add_flag("--no-default-model", o->no_default_model, "Do not add the shipped models (labels multistgae, stgae, dgn)");
   sub->add_flag("--palm-fit", o->palm_fit,

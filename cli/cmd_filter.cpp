@@ -43,6 +43,7 @@ struct FilterOptions {
   double max_gap_ms = FilterConfig{}.max_gap_s * 1e3;
   // Multi-STGAE.
   std::string model_file;  // empty: hs::default_model_path()
+  std::vector<std::string> rate_models;  // models at other rates (rate_choice.hpp)
   bool offline = false;
   int phases = 0;  // interleaved streams; 0 = input rate / model rate
   bool unbounded = false;  // the network's own answer, without the trust region
@@ -82,7 +83,8 @@ std::vector<std::string> method_names() {
 }
 
 // Loads the model once (per run, shared by both hands): --model, else the shipped one.
-void load_stgae(FilterConfig& c, const std::string& model_file, double horizon_ms) {
+void load_stgae(FilterConfig& c, const std::string& model_file, const std::vector<std::string>& rate_models,
+                 double horizon_ms) {
   const std::filesystem::path file =
       model_file.empty() ? default_model_path(default_model_file(c.method)) : std::filesystem::path(model_file);
   c.stgae.model = load_hsm(file);  // InputError naming the file for any defect
@@ -105,6 +107,12 @@ void load_stgae(FilterConfig& c, const std::string& model_file, double horizon_m
   }
   if (c.stgae.offline && c.stgae.model->config.joint_count() != kJointCount)
     throw InputError({c.stgae.source, 0, "--model"}, "offline filtering needs a 26-joint (xr26) model");
+  for (const std::string& f : rate_models) {
+    auto m = load_hsm(f);
+    if (m->config.padding != StgaePadding::Causal)
+      throw InputError({f, 0, "--rate-model"}, "this model is centred (non-causal): it cannot stream");
+    c.stgae.rate_models.push_back(std::move(m));
+  }
 }
 
 // Replaces each hand's rows of the track by `series_fn(series)`; rows keep order and times.
@@ -148,11 +156,13 @@ void run_filter(const FilterOptions& o) {
   if (o.palm_fit && o.offline) throw InputError({"", 0, "--palm-fit"}, "--palm-fit streams; --offline has none");
   if (o.tremor_cancel && o.offline)
     throw InputError({"", 0, "--tremor-cancel"}, "--tremor-cancel streams; --offline has none");
+  if (!o.rate_models.empty() && (!stgae || o.offline))
+    throw InputError({"", 0, "--rate-model"}, "--rate-model is for --method stgae or dgn streaming");
   if (!o.model_file.empty() && !stgae) {
     throw InputError({"", 0, "--model"}, fmt::format("--model is for --method stgae or dgn, not {}", o.method));
   }
   // Load resources and validate the parameters before reading a possibly large file.
-  if (stgae) load_stgae(config, o.model_file, o.horizon_ms);
+  if (stgae) load_stgae(config, o.model_file, o.rate_models, o.horizon_ms);
   if (!o.offline) {
     try {
       (void)make_filter(config);
@@ -197,6 +207,10 @@ void setup_filter(CLI::App& app) {
                   fmt::format("network model (.hsm) of the method's family; default: ${}, else the shipped {} "
                               "(stgae) or {} (dgn)",
                               kModelEnvVar, kDefaultModelFile, kDgnModelFile));
+  sub->add_option("--rate-model", o->rate_models,
+                  "another causal model of the family at another frame rate (repeatable): each hand runs the "
+                  "model whose rate suits its input (a 90 Hz model at 75 Hz and above; docs/STGAE.md \"Models by "
+                  "input rate\")");
   sub->add_option("--phases", o->phases,
                   "Multi-STGAE: interleaved streams for input faster than the model (0 = input rate / model rate)")
       ->capture_default_str();

@@ -333,6 +333,43 @@ TEST_CASE("dgn streams like stgae, and each method refuses the other family's mo
   fs::remove_all(dir);
 }
 
+TEST_CASE("stgae --rate-model: each hand runs the model of its input's rate, and a model that cannot join is refused naming it") {
+  const fs::path dir = hs::test::temp_dir("cli_rate_model");
+  auto fast = small_config(hs::StgaePadding::Causal);
+  fast.rate_hz = 90;
+  const fs::path m90 = write_model(dir / "random_90.hsm", fast, hs::random_stgae_weights(fast, 29, 1.0));
+  const hs::Track built = ramp_track(regular_times(90, 1.0), 0.5, 0.6, 5);
+  hs::write_track_csv(built, dir / "in.csv");
+  const hs::Track in = hs::read_track_csv(dir / "in.csv");
+  const std::string pair = "--method stgae --model " + quoted(models().random_causal) + " --rate-model " + quoted(m90);
+  const hs::Track out = run_ok(in, dir, pair);
+  check_structure(in, out, 0.5);
+  CHECK(out.meta("filter").value_or("").find("rate_models=90") != std::string::npos);
+  // At 90 Hz the answers are the 90 Hz model's alone (after the first rows, which measure the rate).
+  const hs::Track alone = run_ok(in, dir, "--method stgae --model " + quoted(m90));
+  const hs::Track slow = run_ok(in, dir, "--method stgae --model " + quoted(models().random_causal));
+  double to_alone = 0.0, to_slow = 0.0;
+  for (size_t i = 0; i < out.rows.size(); ++i) {
+    if (out.rows[i].t < 0.1 || !out.rows[i].pos.allFinite() || !alone.rows[i].pos.allFinite()) continue;
+    to_alone = std::max(to_alone, (out.rows[i].pos - alone.rows[i].pos).cwiseAbs().maxCoeff());
+    to_slow = std::max(to_slow, (out.rows[i].pos - slow.rows[i].pos).cwiseAbs().maxCoeff());
+  }
+  CHECK(to_alone == 0.0);
+  CHECK(to_slow > 1e-5);
+  // A second model at the same rate, a centred one, or one for a classical method: status 2.
+  CHECK(filter_cli(dir / "in.csv", dir / "out.csv",
+                   "--method stgae --model " + quoted(models().random_causal) + " --rate-model " +
+                       quoted(models().zero_causal), dir / "err.txt") == 2);
+  CHECK(slurp(dir / "err.txt").find("Hz") != std::string::npos);
+  CHECK(filter_cli(dir / "in.csv", dir / "out.csv", "--method stgae --model " + quoted(models().random_causal) + " --rate-model " +
+                       quoted(models().random_centred),
+                   dir / "err.txt") == 2);
+  CHECK(slurp(dir / "err.txt").find(models().random_centred.string()) != std::string::npos);
+  CHECK(filter_cli(dir / "in.csv", dir / "out.csv", "--method oneeuro --rate-model " + quoted(m90), dir / "err.txt") == 2);
+  CHECK(slurp(dir / "err.txt").find("--rate-model") != std::string::npos);
+  fs::remove_all(dir);
+}
+
 TEST_CASE("stgae model errors: bad, missing or centred model files exit with status 2 naming the file") {
   const fs::path dir = hs::test::temp_dir("cli_stgae_bad");
   hs::write_track_csv(ramp_track(regular_times(30, 0.5)), dir / "in.csv");

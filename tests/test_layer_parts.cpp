@@ -329,6 +329,58 @@ TEST_CASE("configuration: HANDSTEADY_METHOD=dgn loads a DGN model, and a model o
   std::filesystem::remove_all(dir);
 }
 
+TEST_CASE("configuration: rate models from HANDSTEADY_RATE_MODELS or the file's rate_models, one that cannot be used left out with an error") {
+  const auto dir = hs::test::temp_dir("layer_rate_models");
+  hs::StgaeConfig c;
+  c.window = 4;
+  c.horizon = 2;
+  c.encoder_channels = {6, 8};
+  c.denoise_decoder_channels = {8, 3};
+  c.predict_decoder_channels = {8, 3};
+  c.temporal_kernel = 3;
+  auto save = [&](const hs::StgaeConfig& cfg, const char* name) {
+    const auto w = hs::random_stgae_weights(cfg, 3, 1.0);
+    hs::save_hsm(dir / name, cfg, w, hs::make_stgae_reference(cfg, w, hs::synthetic_hand_input(cfg, cfg.window, 1)));
+    return dir / name;
+  };
+  const auto m30 = save(c, "m30.hsm");
+  c.rate_hz = 90;
+  const auto m90 = save(c, "m90.hsm");
+  c.rate_hz = 60;
+  c.padding = hs::StgaePadding::Centred;
+  const auto centred = save(c, "centred60.hsm");
+  for (const char* v : {"HANDSTEADY_CONFIG", "HANDSTEADY_MODE", "HANDSTEADY_STGAE_PHASES", "HANDSTEADY_METHOD"}) ::unsetenv(v);
+  ::setenv("HANDSTEADY_MODEL", m30.c_str(), 1);
+  const std::string list = m90.string() + ":" + (dir / "missing.hsm").string() + ":" + centred.string() + ":" + m30.string();
+  ::setenv("HANDSTEADY_RATE_MODELS", list.c_str(), 1);
+  hs::layer::LoadedConfig loaded = hs::layer::load_layer_config();
+  CHECK(loaded.config.filter.method == hs::FilterMethod::Stgae);
+  REQUIRE(loaded.config.filter.stgae.rate_models.size() == 1);  // m90; the missing, centred and same-rate ones left out
+  CHECK(loaded.config.filter.stgae.rate_models[0]->config.rate_hz == 90.0);
+  int errors = 0;
+  for (const auto& m : loaded.engine_messages) {
+    if (m.level != hs::layer::LogLevel::Error) continue;
+    ++errors;
+    CHECK(m.text.find("rate model") != std::string::npos);
+  }
+  CHECK(errors == 3);
+  // The file's array; the environment, when set, replaces it.
+  ::unsetenv("HANDSTEADY_RATE_MODELS");
+  const auto cfg = dir / "cfg.json";
+  std::ofstream(cfg) << R"({"rate_models": [")" << m90.string() << R"("]})";
+  ::setenv("HANDSTEADY_CONFIG", cfg.c_str(), 1);
+  loaded = hs::layer::load_layer_config();
+  REQUIRE(loaded.config.filter.stgae.rate_models.size() == 1);
+  std::ofstream(cfg) << R"({"rate_models": "m90.hsm"})";
+  loaded = hs::layer::load_layer_config();
+  CHECK(loaded.config.filter.stgae.rate_models.empty());
+  bool warned = false;
+  for (const auto& w : loaded.warnings) warned = warned || w.find("'rate_models' must be an array") != std::string::npos;
+  CHECK(warned);
+  for (const char* v : {"HANDSTEADY_CONFIG", "HANDSTEADY_MODEL"}) ::unsetenv(v);
+  std::filesystem::remove_all(dir);
+}
+
 TEST_CASE("configuration: read_layer_config applies the file and the environment and loads no model, as an app beside the layer reads it") {
   const auto dir = hs::test::temp_dir("layer_read_config");
   const auto cfg = dir / "cfg.json";

@@ -8,6 +8,7 @@
 
 #include "handsteady/model_path.hpp"
 #include "handsteady/palm_fit.hpp"
+#include "handsteady/rate_choice.hpp"
 #include "handsteady/tremor_cancel.hpp"
 
 #include "handsteady/stgae_filter.hpp"
@@ -339,7 +340,22 @@ std::unique_ptr<PoseFilter> make_method_filter(const FilterConfig& c) {
         throw std::invalid_argument(fmt::format("method {} needs a model of its family; {} is a {} model",
                                                 filter_method_name(c.method), c.stgae.source,
                                                 filter_method_name(network_method(*c.stgae.model))));
-      return make_stgae_filter(c.stgae.model, 0.0, c.stgae.phases, c.stgae.bounded, c.stgae.gain, c.stgae.smooth);
+      if (c.stgae.rate_models.empty())
+        return make_stgae_filter(c.stgae.model, 0.0, c.stgae.phases, c.stgae.bounded, c.stgae.gain, c.stgae.smooth);
+      {
+        std::vector<RateFilter> by_rate;
+        for (size_t i = 0; i <= c.stgae.rate_models.size(); ++i) {
+          const auto& m = i == 0 ? c.stgae.model : c.stgae.rate_models[i - 1];
+          if (!m) throw std::invalid_argument("network method: rate model " + std::to_string(i) + " is missing");
+          if (network_method(*m) != c.method)
+            throw std::invalid_argument(fmt::format("method {} needs models of its family; rate model {} is a {} model",
+                                                    filter_method_name(c.method), i,
+                                                    filter_method_name(network_method(*m))));
+          by_rate.push_back({m->config.rate_hz,
+                             make_stgae_filter(m, 0.0, c.stgae.phases, c.stgae.bounded, c.stgae.gain, c.stgae.smooth)});
+        }
+        return make_rate_chosen_filter(std::move(by_rate));
+      }
   }
   throw std::invalid_argument("unknown filter method");
 }
@@ -363,6 +379,15 @@ bool palm_fit_on(const FilterConfig& c) noexcept {
 
 std::unique_ptr<PoseFilter> with_palm_fit(std::unique_ptr<PoseFilter> filter) {
   return std::make_unique<StageFilter<PalmFit>>(std::move(filter));
+}
+
+// " rate_models=90" (their rates, comma-separated), or nothing.
+static std::string rate_models_summary(const StgaeParams& p) {
+  if (p.rate_models.empty()) return "";
+  std::string s = " rate_models=";
+  for (size_t i = 0; i < p.rate_models.size(); ++i)
+    s += (i ? "," : "") + (p.rate_models[i] ? fmt::format("{}", p.rate_models[i]->config.rate_hz) : std::string("?"));
+  return s;
 }
 
 std::string filter_params_summary(const FilterConfig& c) {
@@ -394,7 +419,7 @@ std::string filter_params_summary(const FilterConfig& c) {
                          m.padding == StgaePadding::Causal ? "causal" : "centred",
                          p.offline ? "offline" : "streaming", p.phases == 0 ? std::string("auto") : std::to_string(p.phases),
                          p.bounded ? "" : " unbounded", p.bounded && p.gain ? " gain" : "",
-                         p.bounded && p.smooth && !p.offline ? " smoothed" : "") + fit;
+                         p.bounded && p.smooth && !p.offline ? " smoothed" : "") + rate_models_summary(p) + fit;
     }
   }
   return s + fmt::format("max_gap_ms={}", c.max_gap_s * 1e3) + fit;

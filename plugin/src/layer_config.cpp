@@ -173,6 +173,13 @@ void apply_json(std::string_view text, const std::string& where, Applier& a) {
   if (auto v = str("mode")) a.mode(*v, where + ": mode");
   if (auto v = str("method")) a.method(*v, where + ": method");
   if (auto v = str("model")) a.c.model_path = *v;
+  if (j.contains("rate_models")) {
+    const auto& r = j["rate_models"];
+    bool ok = r.is_array();
+    for (size_t i = 0; ok && i < r.size(); ++i) ok = r[i].is_string() && !r[i].get<std::string>().empty();
+    if (ok) a.c.rate_model_paths = r.get<std::vector<std::string>>();
+    else a.warnings.push_back(where + ": 'rate_models' must be an array of file names");
+  }
   if (auto v = str("log_level")) a.log_level(*v, where + ": log_level");
   if (auto v = str("record_dir")) a.c.record_dir = *v;
   if (j.contains("horizon_ms")) {
@@ -278,6 +285,7 @@ void resolve_engine(LayerConfig& c, std::vector<LogMessage>& messages) {
   const FilterMethod network = requested ? c.filter.method : FilterMethod::Stgae;
   const std::string net_name(filter_method_name(network));
   c.filter.stgae.model.reset();
+  c.filter.stgae.rate_models.clear();
   if (c.method_given && !requested) return;  // a classical method was asked for
   c.filter.method = classical_default(c.mode);  // the fallback, if needed
   const std::string fallback(filter_method_name(c.filter.method));
@@ -301,6 +309,20 @@ void resolve_engine(LayerConfig& c, std::vector<LogMessage>& messages) {
     stgae.stgae.source = file.string();
     // Checks the model can stream (causal, 26 joints, the method's family) before any tracker exists.
     (void)make_filter(stgae);
+    // Models at other rates: each must stream beside it, else it is left out (logged).
+    for (const std::string& r : c.rate_model_paths) {
+      const size_t kept = stgae.stgae.rate_models.size();
+      try {
+        stgae.stgae.rate_models.push_back(load_hsm(r));
+        (void)make_filter(stgae);
+        messages.push_back({LogLevel::Info, "engine " + net_name + ": rate model " + r + " (" +
+                                                std::to_string(std::lround(stgae.stgae.rate_models.back()->config.rate_hz)) +
+                                                " Hz) for input at its rate"});
+      } catch (const std::exception& e) {
+        stgae.stgae.rate_models.resize(kept);
+        messages.push_back({LogLevel::Error, "engine " + net_name + ": rate model " + r + " cannot be used: " + e.what()});
+      }
+    }
     const bool palm = palm_fit_on(stgae);
     c.filter = std::move(stgae);
     c.model_path = file.string();
@@ -376,6 +398,14 @@ LoadedConfig read_layer_config() {
   if (auto v = env("HANDSTEADY_MODE")) a.mode(*v, "HANDSTEADY_MODE");
   if (auto v = env("HANDSTEADY_METHOD")) a.method(*v, "HANDSTEADY_METHOD");
   if (auto v = env("HANDSTEADY_MODEL")) c.model_path = *v;
+  if (auto v = env("HANDSTEADY_RATE_MODELS")) {
+    c.rate_model_paths.clear();
+    for (size_t from = 0; from <= v->size();) {
+      const size_t colon = std::min(v->find(':', from), v->size());
+      if (colon > from) c.rate_model_paths.push_back(v->substr(from, colon - from));
+      from = colon + 1;
+    }
+  }
   if (auto v = env("HANDSTEADY_HORIZON_MS")) {
     if (auto d = parse_double(*v)) a.horizon_ms(*d, "HANDSTEADY_HORIZON_MS");
     else out.warnings.push_back("HANDSTEADY_HORIZON_MS: not a number: '" + *v + "'");

@@ -50,6 +50,10 @@ struct LayerConfig {
   FilterConfig filter = layer_default_filter();
   bool method_given = false;    // false: stgae when a model is found, else the mode's classical default
   std::string model_path;       // model file for stgae (empty: hs::lookup_default_model)
+  // Models of the same family at other frame rates: each tracker runs the one whose rate
+  // suits the runtime's (hs::make_rate_chosen_filter). "rate_models" in the file (an array),
+  // HANDSTEADY_RATE_MODELS (':'-separated). One that cannot be used is left out, logged.
+  std::vector<std::string> rate_model_paths;
   int64_t horizon_ns = 20'000'000;  // predict mode: predict this far past the runtime's data (default of both hands)
   // Largest horizon a hand may be given at run time (the engine publishes its path this far).
   int64_t max_horizon_ns = 100'000'000;

@@ -93,6 +93,10 @@ struct KalmanParams {
 struct StgaeParams {
   std::shared_ptr<const StgaeModel> model;  // required
   std::string source;  // the file it came from (for the summary)
+  // Causal models of the same family at other frame rates (distinct from model's and each
+  // other's): each input then runs the model whose rate suits it (rate_choice.hpp), model
+  // answering until the rate is known. Empty: model alone, at every rate.
+  std::vector<std::shared_ptr<const StgaeModel>> rate_models;
   int phases = 0;      // interleaved streams; 0 = input rate / model rate (stgae_filter.hpp)
   bool bounded = true; // false: the network's own answer, without the trust region
   bool gain = false;    // with bounded: keep only the share of the correction the input's next rows confirm
