@@ -436,4 +436,22 @@ void import_weights(StgaeNetImpl& net, const StgaeWeights& weights) {
   }
 }
 
+std::vector<std::string> import_matching_weights(StgaeNetImpl& net, const StgaeWeights& weights) {
+  const auto all = named_tensors(net);
+  torch::NoGradGuard no_grad;
+  std::vector<std::string> left;
+  for (const auto& spec : stgae_tensor_specs(net.config)) {
+    const auto it = weights.tensors.find(spec.name);
+    if (it == weights.tensors.end() || it->second.shape != spec.shape || it->second.data.size() != spec.numel()) {
+      left.push_back(spec.name);
+      continue;
+    }
+    auto dst = spec_tensor(all, spec);
+    auto cpu = torch::from_blob(const_cast<float*>(it->second.data.data()),  // NOLINT: read only
+                                std::vector<int64_t>(spec.shape.begin(), spec.shape.end()), torch::kFloat32);
+    dst.copy_(cpu.to(dst.scalar_type()));
+  }
+  return left;
+}
+
 }  // namespace hs::train

@@ -135,6 +135,10 @@ torch::Tensor predicted_positions(const StgaeConfig& config, const torch::Tensor
 StgaeWeights export_weights(StgaeNetImpl& net);
 // Copies weights (checked with hs::check_stgae_weights) into the module, keeping its dtype.
 void import_weights(StgaeNetImpl& net, const StgaeWeights& weights);
+// Copies the tensors of `weights` whose name and shape the module's spec has (a model of
+// another configuration: a part changed, the rest kept); returns the spec's names it left
+// as they were, none found or of another shape.
+std::vector<std::string> import_matching_weights(StgaeNetImpl& net, const StgaeWeights& weights);
 
 // Moving or whole-window mean over dim 1 (frames) of a [B, L, ...] tensor.
 torch::Tensor time_mean(const torch::Tensor& x, TimeMean mean, int T);

@@ -242,9 +242,18 @@ TrainConfig config_from_object(const json& j, const std::string& source, std::st
   aug.get("speed_factors", c.augment.speed_factors);
   aug.get("shape_prob", c.augment.shape_prob);
   aug.get("still_prob", c.augment.still_prob);
+  aug.get("upsample_prob", c.augment.upsample_prob);
+  std::vector<double> upsample_hz{c.augment.upsample_min_hz, c.augment.upsample_max_hz};
+  aug.get("upsample_hz", upsample_hz);
   aug.finish();
-  for (const auto& [k, v] : {std::pair{"shape_prob", c.augment.shape_prob}, std::pair{"still_prob", c.augment.still_prob}})
+  for (const auto& [k, v] : {std::pair{"shape_prob", c.augment.shape_prob}, std::pair{"still_prob", c.augment.still_prob},
+                             std::pair{"upsample_prob", c.augment.upsample_prob}})
     if (!(v >= 0 && v <= 1)) config_error(source, std::string("augment.") + k, "must be in [0, 1]");
+  if (upsample_hz.size() != 2 || !(upsample_hz[0] > 0) || !(upsample_hz[1] >= upsample_hz[0]) ||
+      !std::isfinite(upsample_hz[1]))
+    config_error(source, "augment.upsample_hz", "expected [min, max] tracker rates with 0 < min <= max");
+  c.augment.upsample_min_hz = upsample_hz[0];
+  c.augment.upsample_max_hz = upsample_hz[1];
   if (scale.size() != 2 || !(scale[0] > 0) || !(scale[1] >= scale[0]))
     config_error(source, "augment.scale", "expected [min, max] with 0 < min <= max");
   c.augment.scale_min = scale[0];
@@ -318,10 +327,12 @@ TrainConfig config_from_object(const json& j, const std::string& source, std::st
   tr.get("threads", c.threads);
   tr.get("freeze_graph_epochs", c.freeze_graph_epochs);
   tr.get("init", c.init);
+  tr.get("init_matching", c.init_matching);
   tr.get("freeze", c.freeze);
   tr.finish();
   for (const auto& f : c.freeze)
     if (f.empty()) config_error(source, "train.freeze", "a prefix must not be empty");
+  if (c.init_matching && c.init.empty()) config_error(source, "train.init_matching", "needs train.init");
   if (c.freeze_graph_epochs < 0) config_error(source, "train.freeze_graph_epochs", "must be >= 0");
   if (c.freeze_graph_epochs > 0 && c.model.family != StgaeFamily::Dgn)
     config_error(source, "train.freeze_graph_epochs", "applies to the dgn family only");

@@ -66,6 +66,10 @@ struct TrainConfig {
   // from instead of random ones (fine-tuning); its network configuration must equal
   // `model`. Empty: random. A resumed run takes its weights from the checkpoint instead.
   std::string init;
+  // With init: the model file may have another network configuration (of the same family
+  // and skeleton); tensors whose names and shapes match are copied, the others keep their
+  // random start (a changed part, e.g. a narrower prediction decoder), and the log names them.
+  bool init_matching = false;
   // Parameters whose names (the .hsm tensor names, e.g. "enc.0.gcn.conv.weight") start
   // with one of these prefixes are not trained, and their BatchNorm statistics are not
   // updated: {"enc", "pre"} trains the denoising decoder alone. Each must name some.

@@ -335,8 +335,37 @@ Window WindowSampler::draw(std::mt19937_64& rng) const {
   const auto& chain = mix_[std::min(m, mix_.size() - 1)].presets;
   // Corrupt all T + DT frames (a stateful tracker noise sees a realistic sequence), keep T.
   w.input = corrupt_chain(w.truth, rate_hz_, chain, rng());
+  if (chance(rng, augment_.upsample_prob)) {
+    const double tracker_hz = std::min(uniform(rng, augment_.upsample_min_hz, augment_.upsample_max_hz), rate_hz_);
+    w.input = upsampled_from(w.input, rate_hz_, tracker_hz, uniform(rng, 0.0, rate_hz_ / tracker_hz));
+  }
   w.input.resize(static_cast<size_t>(T_));
   return w;
+}
+
+std::vector<Pose> upsampled_from(const std::vector<Pose>& frames, double rate_hz, double tracker_hz, double phase) {
+  const double step = rate_hz / tracker_hz;  // model frames per tracker sample
+  const long n = static_cast<long>(frames.size());
+  std::vector<Pose> out(frames.size());
+  if (n == 0) return out;
+  const auto sample = [&](double tau) -> const Pose& {
+    return frames[static_cast<size_t>(std::clamp(std::lround(tau), 0L, n - 1))];
+  };
+  for (long f = 0; f < n; ++f) {
+    // The samples either side of frame f: tau_k = phase + k * step <= f < tau_{k+1}.
+    const double k = std::floor((static_cast<double>(f) - phase) / step);
+    const double t0 = phase + k * step, t1 = t0 + step;
+    const double w = std::clamp((static_cast<double>(f) - t0) / step, 0.0, 1.0);
+    const Pose& a = sample(t0);
+    const Pose& b = sample(t1);
+    Pose& o = out[static_cast<size_t>(f)];
+    for (int j = 0; j < kJointCount; ++j) {
+      const bool ha = a.row(j).allFinite(), hb = b.row(j).allFinite();
+      if (ha && hb) o.row(j) = (1.0 - w) * a.row(j) + w * b.row(j);
+      else o.row(j) = ha ? a.row(j) : b.row(j);
+    }
+  }
+  return out;
 }
 
 std::vector<Window> fixed_windows(const ClipSet& clips, int window, int horizon, int stride, double rate_hz,

@@ -41,7 +41,19 @@ struct AugmentConfig {
   double shape_prob = 0.0;
   // Still hands: the window is one of its frames held (then corrupted as any other).
   double still_prob = 0.0;
+  // A slower tracker whose runtime answers at the model's rate: with this probability the
+  // corrupted window is sampled at a tracker rate drawn from [upsample_min_hz,
+  // upsample_max_hz] (random phase) and linearly interpolated back to the model's frames,
+  // as a runtime interpolating its 30-60 Hz tracker for 90 Hz display times does (noise
+  // then smooth between samples, sharp at them, in a pattern of the two rates).
+  double upsample_prob = 0.0;
+  double upsample_min_hz = 30.0, upsample_max_hz = 60.0;
 };
+
+// The frames a runtime interpolating a tracker at tracker_hz gives at rate_hz: samples of
+// `frames` at phase + k * rate_hz / tracker_hz (the nearest frame's pose), joined linearly
+// (a joint missing at one end takes the other end's value; at both, it stays missing).
+std::vector<Pose> upsampled_from(const std::vector<Pose>& frames, double rate_hz, double tracker_hz, double phase);
 
 // Where training or validation hands come from. FPHA: `path` is the dataset root and
 // `subjects` the subject numbers (right hands). Otherwise `path` is a track CSV or BVH

@@ -502,11 +502,23 @@ TrainResult train_stgae(const TrainConfig& cfg, const TrainOptions& opt, std::os
     StgaeConfig a = m->config, b = c.model;
     a.meta_json.clear();
     b.meta_json.clear();
-    if (to_json(a) != to_json(b))
-      throw InputError(SourceLocation{c.init, 0, "config"},
-                       "train.init: the model's network configuration differs from the config's \"model\"");
-    import_weights(*net, m->weights);
-    log << "initialised from " << c.init << "\n";
+    if (c.init_matching) {
+      if (a.family != b.family || a.skeleton != b.skeleton)
+        throw InputError(SourceLocation{c.init, 0, "config"},
+                         "train.init: the model's family or skeleton differs from the config's \"model\"");
+      const auto left = import_matching_weights(*net, m->weights);
+      log << "initialised from " << c.init << " where names and shapes match; "
+          << (left.empty() ? std::string("every tensor") : std::to_string(left.size()) + " tensors")
+          << (left.empty() ? " matched\n" : " left as initialised:");
+      for (const auto& name : left) log << " " << name;
+      if (!left.empty()) log << "\n";
+    } else {
+      if (to_json(a) != to_json(b))
+        throw InputError(SourceLocation{c.init, 0, "config"},
+                         "train.init: the model's network configuration differs from the config's \"model\"");
+      import_weights(*net, m->weights);
+      log << "initialised from " << c.init << "\n";
+    }
   }
   if (opt.resume) {
     torch::serialize::InputArchive ar;

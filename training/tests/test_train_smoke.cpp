@@ -266,6 +266,64 @@ TEST_CASE("sources are drawn by weight, still and reshaped windows") {
   }
 }
 
+TEST_CASE("a slower tracker upsampled by its runtime: samples kept at their frames, joined linearly") {
+  // Frame f's pose: every coordinate = f, joint 3 missing at frame 4.
+  std::vector<Pose> frames(12);
+  for (size_t f = 0; f < frames.size(); ++f) frames[f].setConstant(static_cast<double>(f));
+  frames[4].row(3).setConstant(std::nan(""));
+  // 30 Hz under 90: a sample every 3 frames from frame 1, held before it.
+  const auto up = upsampled_from(frames, 90.0, 30.0, 1.0);
+  REQUIRE(up.size() == frames.size());
+  CHECK(up[0](0, 0) == doctest::Approx(0.0 + 1.0 * 2.0 / 3.0));  // between the clamped sample at -2 (frame 0) and 1
+  CHECK(up[1](0, 0) == 1.0);
+  CHECK(up[2](0, 0) == doctest::Approx(2.0));  // a ramp stays a ramp between samples
+  CHECK(up[4](0, 0) == 4.0);
+  // Frame 7 lies between the samples at 7 and 10: exactly the sample.
+  CHECK(up[7](0, 0) == 7.0);
+  // Joint 3 is missing at the sample at 4: frames 4-6 take the sample at 7's value.
+  CHECK(up[5](3, 0) == 7.0);
+  CHECK(up[5](0, 0) == doctest::Approx(5.0));
+  CHECK(up[3](3, 0) == 1.0);  // samples 1 and 4: missing at 4, so 1's value
+
+  // Noise between samples is interpolated, not the frame's own: white noise comes out smoother.
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> n(0.0, 1.0);
+  std::vector<Pose> noise(300);
+  for (auto& p : noise)
+    for (int j = 0; j < kJointCount; ++j)
+      for (int c = 0; c < 3; ++c) p(j, c) = n(rng);
+  const auto smooth = upsampled_from(noise, 90.0, 45.0, 0.5);
+  double d_in = 0, d_out = 0;
+  for (size_t f = 1; f < noise.size(); ++f) {
+    d_in += (noise[f] - noise[f - 1]).squaredNorm();
+    d_out += (smooth[f] - smooth[f - 1]).squaredNorm();
+  }
+  CHECK(d_out < 0.5 * d_in);
+  // At the model's own rate with phase 0 nothing changes.
+  const auto same = upsampled_from(noise, 90.0, 90.0, 0.0);
+  double diff = 0;
+  for (size_t f = 0; f < noise.size(); ++f) diff = std::max(diff, (same[f] - noise[f]).cwiseAbs().maxCoeff());
+  CHECK(diff == 0.0);
+  // In the sampler: with upsample_prob 1 the window's input differs from the plain corruption.
+  SynthMotionParams p;
+  p.duration_s = 3;
+  ClipSet clips;
+  clips.append(make_clips({synth_motion(p, Hand::Right, 1)}, 90.0, {1.0}, 10), 1.0);
+  AugmentConfig aug;
+  aug.upsample_prob = 1.0;
+  const WindowSampler sampler(clips, 24, 5, 90.0, aug, {{{"tracker"}, 1.0}});
+  std::mt19937_64 r2(4);
+  const Window w = sampler.draw(r2);
+  CHECK(w.input.size() == 24);
+  CHECK(w.truth.size() == 29);
+  const auto c = parse_train_config(R"({"model": {}, "augment": {"upsample_prob": 0.5, "upsample_hz": [30, 72]}})");
+  CHECK(c.augment.upsample_prob == 0.5);
+  CHECK(c.augment.upsample_max_hz == 72.0);
+  CHECK(error_field(R"({"model": {}, "augment": {"upsample_prob": -1}})") == "augment.upsample_prob");
+  CHECK(error_field(R"({"model": {}, "augment": {"upsample_hz": [60, 30]}})") == "augment.upsample_hz");
+  CHECK(error_field(R"({"model": {}, "train": {"init_matching": true}})") == "train.init_matching");
+}
+
 TEST_CASE("data sources in the config: lists, legacy FPHA keys, errors by key") {
   const auto c = parse_train_config(R"({"model": {}, "data": {
       "train": [{"fpha": "/d/fpha", "subjects": [1, 2], "weight": 2}, {"path": "/d/leap", "exclude": ["s04_"]}],
