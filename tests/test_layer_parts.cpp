@@ -288,8 +288,9 @@ TEST_CASE("repair: non-finite or impossible velocities lose their valid bit") {
   CHECK(vel[5].velocityFlags == (XR_SPACE_VELOCITY_LINEAR_VALID_BIT | XR_SPACE_VELOCITY_ANGULAR_VALID_BIT));
 }
 
-TEST_CASE("configuration: HANDSTEADY_METHOD=dgn loads a DGN model, and a model of the other family falls back with an error") {
-  const auto dir = hs::test::temp_dir("layer_dgn_config");
+namespace {
+// A tiny causal Multi-STGAE configuration, and a model file of it with random weights.
+hs::StgaeConfig tiny_model_config() {
   hs::StgaeConfig c;
   c.window = 4;
   c.horizon = 2;
@@ -297,11 +298,19 @@ TEST_CASE("configuration: HANDSTEADY_METHOD=dgn loads a DGN model, and a model o
   c.denoise_decoder_channels = {8, 3};
   c.predict_decoder_channels = {8, 3};
   c.temporal_kernel = 3;
-  auto save = [&](const hs::StgaeConfig& cfg, const char* name) {
-    const auto w = hs::random_stgae_weights(cfg, 3, 1.0);
-    hs::save_hsm(dir / name, cfg, w, hs::make_stgae_reference(cfg, w, hs::synthetic_hand_input(cfg, cfg.window, 1)));
-    return dir / name;
-  };
+  return c;
+}
+std::filesystem::path save_tiny_model(const std::filesystem::path& dir, const hs::StgaeConfig& cfg, const char* name) {
+  const auto w = hs::random_stgae_weights(cfg, 3, 1.0);
+  hs::save_hsm(dir / name, cfg, w, hs::make_stgae_reference(cfg, w, hs::synthetic_hand_input(cfg, cfg.window, 1)));
+  return dir / name;
+}
+}  // namespace
+
+TEST_CASE("configuration: HANDSTEADY_METHOD=dgn loads a DGN model, and a model of the other family falls back with an error") {
+  const auto dir = hs::test::temp_dir("layer_dgn_config");
+  hs::StgaeConfig c = tiny_model_config();
+  auto save = [&](const hs::StgaeConfig& cfg, const char* name) { return save_tiny_model(dir, cfg, name); };
   const auto stgae = save(c, "stgae.hsm");
   c.family = hs::StgaeFamily::Dgn;
   c.gates = false;
@@ -331,18 +340,8 @@ TEST_CASE("configuration: HANDSTEADY_METHOD=dgn loads a DGN model, and a model o
 
 TEST_CASE("configuration: rate models from HANDSTEADY_RATE_MODELS or the file's rate_models, one that cannot be used left out with an error") {
   const auto dir = hs::test::temp_dir("layer_rate_models");
-  hs::StgaeConfig c;
-  c.window = 4;
-  c.horizon = 2;
-  c.encoder_channels = {6, 8};
-  c.denoise_decoder_channels = {8, 3};
-  c.predict_decoder_channels = {8, 3};
-  c.temporal_kernel = 3;
-  auto save = [&](const hs::StgaeConfig& cfg, const char* name) {
-    const auto w = hs::random_stgae_weights(cfg, 3, 1.0);
-    hs::save_hsm(dir / name, cfg, w, hs::make_stgae_reference(cfg, w, hs::synthetic_hand_input(cfg, cfg.window, 1)));
-    return dir / name;
-  };
+  hs::StgaeConfig c = tiny_model_config();
+  auto save = [&](const hs::StgaeConfig& cfg, const char* name) { return save_tiny_model(dir, cfg, name); };
   const auto m30 = save(c, "m30.hsm");
   c.rate_hz = 90;
   const auto m90 = save(c, "m90.hsm");
