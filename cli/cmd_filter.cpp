@@ -209,7 +209,7 @@ void setup_filter(CLI::App& app) {
                               kModelEnvVar, kDefaultModelFile, kDgnModelFile));
   sub->add_option("--rate-model", o->rate_models,
                   "another causal model of the family at another frame rate (repeatable): each hand runs the "
-                  "model whose rate suits its input (a 90 Hz model at 75 Hz and above; docs/STGAE.md \"Models by "
+                  "model whose rate suits its input (with a 30 and a 90 Hz model, the 90 Hz one from 72 Hz up; docs/STGAE.md \"Models by "
                   "input rate\")");
   sub->add_option("--phases", o->phases,
                   "Multi-STGAE: interleaved streams for input faster than the model (0 = input rate / model rate)")
