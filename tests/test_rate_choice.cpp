@@ -213,4 +213,7 @@ TEST_CASE("through make_filter each input gets exactly the answers of its model 
   hs::FilterConfig missing = pair;
   missing.stgae.rate_models = {nullptr};
   CHECK_THROWS_AS(hs::make_filter(missing), std::invalid_argument);
+  hs::FilterConfig unpaired = pair;  // rate models with no model of the method's own
+  unpaired.stgae.model = nullptr;
+  CHECK_THROWS_AS(hs::make_filter(unpaired), std::invalid_argument);
 }

@@ -302,6 +302,35 @@ FilterMethod network_method(const StgaeModel& model) noexcept {
 }
 
 namespace {
+// The network's streaming filter: one adapter, or one per model rate behind the choice by
+// input rate (rate_choice.hpp). Every model must be of the method's family.
+std::unique_ptr<PoseFilter> make_network_filter(const FilterConfig& c) {
+  const StgaeParams& p = c.stgae;
+  if (p.offline)
+    throw std::invalid_argument("network window mode (offline) runs over a whole recording, not as a streaming filter");
+  if (p.model && network_method(*p.model) != c.method)
+    throw std::invalid_argument(fmt::format("method {} needs a model of its family; {} is a {} model",
+                                            filter_method_name(c.method), p.source,
+                                            filter_method_name(network_method(*p.model))));
+  const auto adapter = [&](const std::shared_ptr<const StgaeModel>& m) {
+    return make_stgae_filter(m, 0.0, p.phases, p.bounded, p.gain, p.smooth);
+  };
+  if (p.rate_models.empty()) return adapter(p.model);
+  if (!p.model) throw std::invalid_argument("network method: rate models need a model to pair with");
+  std::vector<RateFilter> by_rate;
+  by_rate.push_back({p.model->config.rate_hz, adapter(p.model)});
+  for (size_t i = 0; i < p.rate_models.size(); ++i) {
+    const auto& m = p.rate_models[i];
+    if (!m) throw std::invalid_argument("network method: rate model " + std::to_string(i + 1) + " is missing");
+    if (network_method(*m) != c.method)
+      throw std::invalid_argument(fmt::format("method {} needs models of its family; rate model {} is a {} model",
+                                              filter_method_name(c.method), i + 1,
+                                              filter_method_name(network_method(*m))));
+    by_rate.push_back({m->config.rate_hz, adapter(m)});
+  }
+  return make_rate_chosen_filter(std::move(by_rate));
+}
+
 std::unique_ptr<PoseFilter> make_method_filter(const FilterConfig& c) {
   switch (c.method) {
     case FilterMethod::Raw:
@@ -334,28 +363,7 @@ std::unique_ptr<PoseFilter> make_method_filter(const FilterConfig& c) {
     }
     case FilterMethod::Stgae:
     case FilterMethod::Dgn:
-      if (c.stgae.offline)
-        throw std::invalid_argument("network window mode (offline) runs over a whole recording, not as a streaming filter");
-      if (c.stgae.model && network_method(*c.stgae.model) != c.method)
-        throw std::invalid_argument(fmt::format("method {} needs a model of its family; {} is a {} model",
-                                                filter_method_name(c.method), c.stgae.source,
-                                                filter_method_name(network_method(*c.stgae.model))));
-      if (c.stgae.rate_models.empty())
-        return make_stgae_filter(c.stgae.model, 0.0, c.stgae.phases, c.stgae.bounded, c.stgae.gain, c.stgae.smooth);
-      {
-        std::vector<RateFilter> by_rate;
-        for (size_t i = 0; i <= c.stgae.rate_models.size(); ++i) {
-          const auto& m = i == 0 ? c.stgae.model : c.stgae.rate_models[i - 1];
-          if (!m) throw std::invalid_argument("network method: rate model " + std::to_string(i) + " is missing");
-          if (network_method(*m) != c.method)
-            throw std::invalid_argument(fmt::format("method {} needs models of its family; rate model {} is a {} model",
-                                                    filter_method_name(c.method), i,
-                                                    filter_method_name(network_method(*m))));
-          by_rate.push_back({m->config.rate_hz,
-                             make_stgae_filter(m, 0.0, c.stgae.phases, c.stgae.bounded, c.stgae.gain, c.stgae.smooth)});
-        }
-        return make_rate_chosen_filter(std::move(by_rate));
-      }
+      return make_network_filter(c);
   }
   throw std::invalid_argument("unknown filter method");
 }

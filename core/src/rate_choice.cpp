@@ -1,8 +1,9 @@
 // Chooses among filters of different model rates by the input's measured rate.
 #include "handsteady/rate_choice.hpp"
 
+#include "interval_ring.hpp"
+
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -31,27 +32,24 @@ class RateChosenFilter final : public PoseFilter {
   void reset() noexcept override {
     for (RateFilter& f : filters_) f.filter->reset();
     chosen_ = -1;
-    seen_ = 0;
+    intervals_.reset();
     mismatch_ = 0;
     last_t_ = std::numeric_limits<double>::quiet_NaN();
   }
 
   bool push(double t, const Pose& observed) noexcept override {
     if (!is_next_time(t, last_t_)) return false;
-    if (!std::isnan(last_t_)) {
-      intervals_[static_cast<size_t>(seen_ % kWindow)] = t - last_t_;
-      ++seen_;
-    }
+    if (!std::isnan(last_t_)) intervals_.record(t - last_t_);
     last_t_ = t;
     if (chosen_ < 0) {
       // Until the rate is known every filter takes the rows.
       for (RateFilter& f : filters_) f.filter->push(t, observed);
-      if (seen_ >= kRateChoiceRows - 1) chosen_ = wanted();
+      if (intervals_.seen >= kRateChoiceRows - 1) chosen_ = wanted();
       return true;
     }
     // A lasting change of rate (kStreak rows in a row over a full window): the other
     // filter starts from this row.
-    if (seen_ >= kWindow) {
+    if (intervals_.full()) {
       const int want = wanted();
       mismatch_ = want == chosen_ ? 0 : mismatch_ + 1;
       if (mismatch_ >= kStreak) {
@@ -75,18 +73,13 @@ class RateChosenFilter final : public PoseFilter {
 
   // The rate the median of the last kWindow intervals asks for.
   int wanted() const noexcept {
-    std::array<double, kWindow> v{};
-    const auto n = static_cast<size_t>(std::min<long>(seen_, kWindow));
-    std::copy(intervals_.begin(), intervals_.begin() + static_cast<std::ptrdiff_t>(n), v.begin());
-    const auto mid = v.begin() + static_cast<std::ptrdiff_t>(n / 2);
-    std::nth_element(v.begin(), mid, v.begin() + static_cast<std::ptrdiff_t>(n));
-    return choose_rate(rates_, *mid > 0.0 ? 1.0 / *mid : std::numeric_limits<double>::infinity());
+    const double median = intervals_.median();
+    return choose_rate(rates_, median > 0.0 ? 1.0 / median : std::numeric_limits<double>::infinity());
   }
 
   std::vector<RateFilter> filters_;
   std::vector<double> rates_;
-  std::array<double, kWindow> intervals_{};
-  long seen_ = 0;
+  IntervalRing<kWindow> intervals_;
   int chosen_ = -1, mismatch_ = 0;
   double last_t_ = std::numeric_limits<double>::quiet_NaN();
 };

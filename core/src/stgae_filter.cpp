@@ -12,6 +12,7 @@
 #include "handsteady/stgae_engine.hpp"
 #include "handsteady/stgae_filter.hpp"
 #include "handsteady/time_series.hpp"
+#include "interval_ring.hpp"
 
 #include <algorithm>
 #include <array>
@@ -63,7 +64,7 @@ class StgaeFilter final : public PoseFilter {
     restart_grid();
     gain_.reset();
     noise_.reset();
-    intervals_seen_ = 0;
+    intervals_.reset();
     mismatch_rows_ = 0;
     last_t_ = std::numeric_limits<double>::quiet_NaN();
     last_valid_t_ = -std::numeric_limits<double>::infinity();
@@ -98,13 +99,13 @@ class StgaeFilter final : public PoseFilter {
     if (gap) noise_.reset();
     noise_.push(t, std::span<const float>(cur_.data(), cur_.size()));
     if (gap) restart_grid();
-    else if (have_grid_) record_interval(t - last_valid_t_);
+    else if (have_grid_) intervals_.record(t - last_valid_t_);
     last_valid_t_ = t;
     if (!have_grid_) {
       start_grid(t);
       return true;
     }
-    const double median = median_interval();  // once a row: the mode, the rate watch, the lock spacing
+    const double median = intervals_.median();  // once a row: the mode, the rate watch, the lock spacing
     if (valid_rows_ < kRateRows) {
       if (++valid_rows_ == kRateRows) choose_mode(mode_for(median));
     } else if (rate_changed(median)) {  // the runtime's rate is not what the first rows said: start over
@@ -293,29 +294,14 @@ class StgaeFilter final : public PoseFilter {
     frame_period_ = period_;
     valid_rows_ = 1;
     mismatch_rows_ = 0;
-    if (intervals_seen_ >= kRateRows - 1) {
-      choose_mode(mode_for(median_interval()));
+    if (intervals_.seen >= kRateRows - 1) {
+      choose_mode(mode_for(intervals_.median()));
       valid_rows_ = kRateRows;
     }
     push_frame(0, cur_, t);
     prev_ = cur_;
     prev_t_ = t;
     have_grid_ = true;
-  }
-
-  void record_interval(double dt) noexcept {
-    intervals_[static_cast<size_t>(intervals_seen_ % kRateWindow)] = dt;
-    ++intervals_seen_;
-  }
-
-  // The median of the last kRateWindow intervals (of all of them while fewer).
-  double median_interval() const noexcept {
-    std::array<double, kRateWindow> v{};
-    const auto n = static_cast<size_t>(std::min<long>(intervals_seen_, kRateWindow));
-    std::copy(intervals_.begin(), intervals_.begin() + static_cast<std::ptrdiff_t>(n), v.begin());
-    const auto mid = v.begin() + static_cast<std::ptrdiff_t>(n / 2);
-    std::nth_element(v.begin(), mid, v.begin() + static_cast<std::ptrdiff_t>(n));
-    return *mid;
   }
 
   // Whether a full window of intervals (median: theirs) has asked for another mode kRateStreak rows in a row.
@@ -325,7 +311,7 @@ class StgaeFilter final : public PoseFilter {
   // splits its intervals differently is taken up without a restart: the streams keep their
   // history (a log near 22 Hz, 1.34 periods, crosses that edge often).
   bool rate_changed(double median) noexcept {
-    if (intervals_seen_ < kRateWindow) return false;
+    if (!intervals_.full()) return false;
     const double r = median * phases_ / (period_ * split_);
     const bool still_locks = locked_ && r >= kLockMin && r <= kLockMax;
     const RateMode want = mode_for(median);
@@ -384,8 +370,7 @@ class StgaeFilter final : public PoseFilter {
   InputNoise noise_;             // the input's noise at the input rate, for the trust region
   Pose ans_ = untracked_pose();  // the answer at the last row, before the gain
   int n_ = 0, dt_frames_ = 0, phases_ = 1, latest_ = -1, valid_rows_ = 0, mismatch_rows_ = 0;
-  std::array<double, kRateWindow> intervals_{};  // ring of the last sample intervals (s)
-  long intervals_seen_ = 0;
+  IntervalRing<kRateWindow> intervals_;  // the last sample intervals (s)
   double period_ = 1.0 / 30.0, sub_period_ = 1.0 / 30.0;
   double frame_period_ = 1.0 / 30.0;  // time between a stream's frames: period_, or K intervals when locked
   double lock_spacing_ = 1.0 / 30.0;  // locked: the nominal time between frames, the median interval / split_
