@@ -42,20 +42,32 @@ if [ "${1:-}" != "--quick" ]; then
   # the track CSV reader, the FPHA/MRTK/BVH importers, the layer's JSON configuration
   # (docs/FUZZING.md). Fixed seed; each from a scratch copy of its seed corpus
   # (tests/fuzz/corpus/<name>), HS_FUZZ_SECONDS each (default 60 s for the model loader,
-  # 30 s for the others: 3.5 min in all).
+  # 30 s for the others), $jobs at a time (a fuzzer is one process on one core): 2 min on
+  # 2 cores. Reported in this order whatever order they end in.
   cmake -S . -B build/fuzz -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=RelWithDebInfo -DHS_WERROR=ON \
     "$optimised" \
     -DHS_FUZZ=ON -DHS_SANITIZE=address,undefined -DHS_BUILD_TRAINING=OFF -DHS_BUILD_DEMO=OFF >/dev/null
   fuzzers=(hsm_loader track_csv fpha mrtk bvh layer_config train_config)
   cmake --build build/fuzz -j"$jobs" --target "${fuzzers[@]/#/fuzz_}"
-  for name in "${fuzzers[@]}"; do
-    corpus=build/fuzz/corpus/$name log=build/fuzz/fuzz_$name.log seconds=30 dict=()
+  fuzz() {  # name: runs one fuzzer, its exit status in build/fuzz/fuzz_<name>.rc
+    local name=$1 corpus=build/fuzz/corpus/$1 log=build/fuzz/fuzz_$1.log seconds=30 dict=() rc=0
     if [ "$name" = hsm_loader ]; then seconds=60; fi
     rm -rf "$corpus" && mkdir -p "$corpus"
     if [ -d "tests/fuzz/corpus/$name" ]; then cp "tests/fuzz/corpus/$name"/* "$corpus"/; fi
     if [ -f "tests/fuzz/dict/$name.dict" ]; then dict=(-dict="tests/fuzz/dict/$name.dict"); fi
-    if ! "build/fuzz/tests/fuzz/fuzz_$name" -seed=1 -max_total_time="${HS_FUZZ_SECONDS:-$seconds}" -timeout=10 \
-        -print_final_stats=1 -artifact_prefix="build/fuzz/$name-" "${dict[@]}" "$corpus" > "$log" 2>&1; then
+    "build/fuzz/tests/fuzz/fuzz_$name" -seed=1 -max_total_time="${HS_FUZZ_SECONDS:-$seconds}" -timeout=10 \
+      -print_final_stats=1 -artifact_prefix="build/fuzz/$name-" "${dict[@]}" "$corpus" > "$log" 2>&1 || rc=$?
+    echo "$rc" > "build/fuzz/fuzz_$name.rc"
+  }
+  for name in "${fuzzers[@]}"; do
+    rm -f "build/fuzz/fuzz_$name.rc"
+    while [ "$(jobs -rp | wc -l)" -ge "$jobs" ]; do wait -n || true; done
+    fuzz "$name" &
+  done
+  wait
+  for name in "${fuzzers[@]}"; do
+    log=build/fuzz/fuzz_$name.log
+    if [ "$(cat "build/fuzz/fuzz_$name.rc" 2>/dev/null)" != 0 ]; then
       tail -n 80 "$log" >&2
       echo "fuzz_$name failed; the input: $(sed -n 's/.*Test unit written to //p' "$log")" >&2
       exit 1
