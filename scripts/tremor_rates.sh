@@ -35,11 +35,11 @@ echo "|---|---:|---:|---:|"
 for set in parkinson parkinson60to90 physiological none; do
   truth=$out/${set}_clean.csv
   score "$set, raw" "$out/$set.csv" "$truth"
-  $hs filter --method stgae --in "$out/$set.csv" --out "$out/${set}_shipped.csv" 2>/dev/null
+  $hs filter --method stgae --in "$out/$set.csv" --out "$out/${set}_shipped.csv"
   score "$set, shipped" "$out/${set}_shipped.csv" "$truth"
   for m in "$@"; do
     name=$(basename "$m" .hsm)
-    $hs filter --method stgae --rate-model "$m" --in "$out/$set.csv" --out "$out/${set}_$name.csv" 2>/dev/null
+    $hs filter --method stgae --rate-model "$m" --in "$out/$set.csv" --out "$out/${set}_$name.csv"
     score "$set, + $name" "$out/${set}_$name.csv" "$truth"
   done
 done
