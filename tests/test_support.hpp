@@ -6,8 +6,11 @@
 
 #include <cstdlib>
 #include <filesystem>
+#include <mutex>
 #include <random>
 #include <string>
+#include <system_error>
+#include <vector>
 
 #include <sys/wait.h>
 #include <unistd.h>
@@ -30,9 +33,26 @@ inline Pose jittered(Pose p, std::mt19937_64& rng, std::normal_distribution<doub
   return p;
 }
 
+// Every directory temp_dir made is removed when the test process exits (also those kept
+// for the whole run, such as generated fixtures), so repeated runs do not fill /tmp.
+// HANDSTEADY_KEEP_TEST_FILES=1 keeps them for a look after a failure.
+struct TempDirs {
+  std::mutex mutex;
+  std::vector<std::filesystem::path> made;
+  ~TempDirs() {
+    const char* keep = std::getenv("HANDSTEADY_KEEP_TEST_FILES");
+    if (keep && std::string(keep) == "1") return;
+    std::error_code ec;
+    for (const auto& p : made) std::filesystem::remove_all(p, ec);
+  }
+};
+
 inline std::filesystem::path temp_dir(const std::string& name) {
+  static TempDirs dirs;
   auto p = std::filesystem::temp_directory_path() / ("handsteady_test_" + name + "_" + std::to_string(::getpid()));
   std::filesystem::create_directories(p);
+  const std::lock_guard<std::mutex> lock(dirs.mutex);
+  dirs.made.push_back(p);
   return p;
 }
 
