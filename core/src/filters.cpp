@@ -29,7 +29,6 @@ namespace hs {
 namespace {
 
 using Vec3 = Eigen::Vector3d;
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // Shared bookkeeping: timestamp checks, per-joint time of last observation, gap expiry.
 // Derived supplies init_joint(j, x), update_joint(j, dt, x), predict_joint(j, dt) -> Vec3
@@ -308,10 +307,14 @@ std::unique_ptr<PoseFilter> make_network_filter(const FilterConfig& c) {
   const StgaeParams& p = c.stgae;
   if (p.offline)
     throw std::invalid_argument("network window mode (offline) runs over a whole recording, not as a streaming filter");
-  if (p.model && network_method(*p.model) != c.method)
-    throw std::invalid_argument(fmt::format("method {} needs a model of its family; {} is a {} model",
-                                            filter_method_name(c.method), p.source,
-                                            filter_method_name(network_method(*p.model))));
+  // Every model it runs must be of the method's family (`which` names it in the error).
+  const auto require_family = [&](const StgaeModel& m, const std::string& which) {
+    if (network_method(m) != c.method)
+      throw std::invalid_argument(fmt::format("method {} needs models of its family; {} is a {} model",
+                                              filter_method_name(c.method), which,
+                                              filter_method_name(network_method(m))));
+  };
+  if (p.model) require_family(*p.model, p.source);
   const auto adapter = [&](const std::shared_ptr<const StgaeModel>& m) {
     return make_stgae_filter(m, 0.0, p.phases, p.bounded, p.gain, p.smooth);
   };
@@ -322,10 +325,7 @@ std::unique_ptr<PoseFilter> make_network_filter(const FilterConfig& c) {
   for (size_t i = 0; i < p.rate_models.size(); ++i) {
     const auto& m = p.rate_models[i];
     if (!m) throw std::invalid_argument("network method: rate model " + std::to_string(i + 1) + " is missing");
-    if (network_method(*m) != c.method)
-      throw std::invalid_argument(fmt::format("method {} needs models of its family; rate model {} is a {} model",
-                                              filter_method_name(c.method), i + 1,
-                                              filter_method_name(network_method(*m))));
+    require_family(*m, "rate model " + std::to_string(i + 1));
     by_rate.push_back({m->config.rate_hz, adapter(m)});
   }
   return make_rate_chosen_filter(std::move(by_rate));
