@@ -200,7 +200,7 @@ void setup_benchmark(CLI::App& app) {
   });
 }
 
-const CommandRegistration reg(&setup_benchmark);
+const CommandRegistration register_benchmark(&setup_benchmark);
 
 }  // namespace
 }  // namespace hs::cli

@@ -40,6 +40,6 @@ void setup_compare(CLI::App& app) {
   });
 }
 
-hs::cli::CommandRegistration reg(&setup_compare);
+const hs::cli::CommandRegistration register_compare(&setup_compare);
 
 }  // namespace

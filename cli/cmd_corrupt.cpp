@@ -137,7 +137,7 @@ void setup_corrupt(CLI::App& app) {
   sub->callback([o] { run_corrupt(*o); });
 }
 
-const CommandRegistration reg(&setup_corrupt);
+const CommandRegistration register_corrupt(&setup_corrupt);
 
 }  // namespace
 }  // namespace hs::cli

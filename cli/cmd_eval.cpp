@@ -91,7 +91,7 @@ void setup_eval(CLI::App& app) {
   sub->callback([o] { run_eval(*o); });
 }
 
-const CommandRegistration reg(&setup_eval);
+const CommandRegistration register_eval(&setup_eval);
 
 }  // namespace
 }  // namespace hs::cli

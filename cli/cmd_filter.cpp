@@ -237,7 +237,7 @@ void setup_filter(CLI::App& app) {
   sub->callback([o] { run_filter(*o); });
 }
 
-const CommandRegistration reg(&setup_filter);
+const CommandRegistration register_filter(&setup_filter);
 
 }  // namespace
 }  // namespace hs::cli

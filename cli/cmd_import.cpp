@@ -66,7 +66,7 @@ void setup_import(CLI::App& app) {
   cmd->callback([args] { run_import(*args); });
 }
 
-const CommandRegistration reg(&setup_import);
+const CommandRegistration register_import(&setup_import);
 
 }  // namespace
 

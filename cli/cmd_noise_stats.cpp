@@ -138,7 +138,7 @@ void setup_noise_stats(CLI::App& app) {
   sub->callback([in] { run_noise_stats(*in); });
 }
 
-const CommandRegistration reg(&setup_noise_stats);
+const CommandRegistration register_noise_stats(&setup_noise_stats);
 
 }  // namespace
 }  // namespace hs::cli

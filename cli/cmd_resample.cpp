@@ -55,7 +55,7 @@ void setup_resample(CLI::App& app) {
   });
 }
 
-CommandRegistration reg(&setup_resample);
+const CommandRegistration register_resample(&setup_resample);
 
 }  // namespace
 }  // namespace hs::cli

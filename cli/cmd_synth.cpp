@@ -34,6 +34,6 @@ void setup_synth(CLI::App& app) {
   });
 }
 
-hs::cli::CommandRegistration reg(&setup_synth);
+const hs::cli::CommandRegistration register_synth(&setup_synth);
 
 }  // namespace

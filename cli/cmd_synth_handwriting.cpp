@@ -111,7 +111,7 @@ void setup_synth_handwriting(CLI::App& app) {
   sub->callback([o] { run_synth_handwriting(*o); });
 }
 
-const CommandRegistration reg(&setup_synth_handwriting);
+const CommandRegistration register_synth_handwriting(&setup_synth_handwriting);
 
 }  // namespace
 }  // namespace hs::cli

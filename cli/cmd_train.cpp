@@ -37,6 +37,6 @@ void setup(CLI::App& app) {
   });
 }
 
-const hs::cli::CommandRegistration reg(&setup);
+const hs::cli::CommandRegistration register_train(&setup);
 
 }  // namespace

@@ -14,7 +14,7 @@ namespace {
 using hs::Joint;
 using hs::Pose;
 using hs::idx;
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using hs::kNaN;
 using hs::test::synthetic_hand;
 
 

@@ -25,7 +25,7 @@ using hs::kJointCount;
 using hs::Pose;
 using Vec3 = Eigen::Vector3d;
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using hs::kNaN;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kPi = std::numbers::pi;
 // The classical methods (Multi-STGAE has its own tests: test_stgae_engine, test_correction_bound).

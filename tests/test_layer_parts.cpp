@@ -25,8 +25,6 @@ using namespace hs::layer;
 
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
 // The synthetic hand 0.4 m in front of the origin (no joint near the origin).
 Pose hand_at(double x, double y = 0.0) {
   Pose p = test::synthetic_hand();

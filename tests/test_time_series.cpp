@@ -11,7 +11,7 @@
 
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using hs::kNaN;
 
 }  // namespace
 

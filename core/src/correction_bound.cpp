@@ -8,7 +8,6 @@
 namespace hs {
 
 namespace {
-constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
 Eigen::Vector3d load(const float* p) noexcept { return Eigen::Vector3f(p[0], p[1], p[2]).cast<double>(); }
@@ -58,8 +57,8 @@ CorrectionBound::CorrectionBound(int frames)
 
 void CorrectionBound::reset() noexcept {
   n_ = 0;
-  std::fill(x_.begin(), x_.end(), kNaN);
-  std::fill(disp_.begin(), disp_.end(), kNaN);
+  std::fill(x_.begin(), x_.end(), kNaNf);
+  std::fill(disp_.begin(), disp_.end(), kNaNf);
   rough_.fill(0.0);
   count_.fill(0);
   radius_.fill(kInf);
@@ -83,7 +82,7 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std
   float* x_now = x_.data() + slot * kFs;
   std::copy(x.begin(), x.begin() + kFs, x_now);
   float* disp_now = disp_.data() + slot * (F - 1) * kFs;
-  std::fill(disp_now, disp_now + (F - 1) * kFs, kNaN);
+  std::fill(disp_now, disp_now + (F - 1) * kFs, kNaNf);
   for (int j = 0; j < kJointCount; ++j) {
     const auto ju = static_cast<size_t>(j);
     const size_t o = 3 * ju;

@@ -7,10 +7,6 @@
 
 namespace hs {
 
-namespace {
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-}  // namespace
-
 void CorrectionGain::reset() noexcept {
   restart();
   s_fr_ = s_lr_ = s_ff_ = s_fl_ = s_ll_ = s_rows_ = 0.0;

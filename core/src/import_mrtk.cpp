@@ -1,5 +1,6 @@
 // HoloLens 2 / MRTK CSV -> two-hand track (docs/IMPORTERS.md#mrtk).
 #include "handsteady/import.hpp"
+#include "handsteady/text_fields.hpp"
 
 #include "import_common.hpp"
 
@@ -64,20 +65,6 @@ struct Column {
   int joint = -1;
   std::string name;  // as in the header, for messages
 };
-
-std::vector<std::string_view> split_commas(std::string_view line) {
-  std::vector<std::string_view> out;
-  size_t start = 0;
-  for (;;) {
-    const size_t comma = line.find(',', start);
-    if (comma == std::string_view::npos) {
-      out.push_back(detail::trim(line.substr(start)));
-      return out;
-    }
-    out.push_back(detail::trim(line.substr(start, comma - start)));
-    start = comma + 1;
-  }
-}
 
 bool parse_int(std::string_view s, int& out) {
   if (s.empty()) return false;

@@ -12,7 +12,6 @@ namespace hs {
 namespace {
 
 constexpr double kMm = 1000.0;
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // Sum and count, so per-hand results can be pooled before dividing.
 struct Mean {

@@ -7,10 +7,6 @@
 
 namespace hs {
 
-namespace {
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-}
-
 PredictionSmoother::PredictionSmoother(int frames) : frames_(frames < 1 ? 1 : frames) {
   disp_.resize(static_cast<size_t>(frames_ - 1) * kFs);
   t_.resize(static_cast<size_t>(frames_ - 1) * kJointCount);

@@ -188,13 +188,19 @@ void dgn_blocks(const std::vector<DgnBlockLayer<S>>& blocks, int F, Mat<S>& v, M
   }
 }
 
+}  // namespace
+
 // The DGN prediction decoder on the lifted frames (zv, ze; PE added in place); outputs
 // per block, so that a stream's second call allocates nothing. Returns the offsets' streams.
+// (Outside the anonymous namespace: a stream's state, which has external linkage, holds one.)
 template <class S>
 struct DgnDecoderBuffers {
   std::vector<Mat<S>> v, e;
   std::vector<typename DgnBlockLayer<S>::Workspace> ws;  // one per block: widths differ
 };
+
+namespace {
+
 template <class S>
 std::pair<const Mat<S>*, const Mat<S>*> dgn_predict_decoder(const typename StgaeNet<S>::Impl& m, Mat<S>& zv, Mat<S>& ze,
                                                           DgnDecoderBuffers<S>& buf) {

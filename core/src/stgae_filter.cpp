@@ -26,8 +26,6 @@ namespace hs {
 
 namespace {
 
-constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
-
 // The output of one stream: the path [denoised at t, predicted 1..DT periods later].
 struct PhaseOutput {
   std::vector<float> path, den_prev;
@@ -46,14 +44,14 @@ class StgaeFilter final : public PoseFilter {
     period_ = 1.0 / c.rate_hz;
     dt_frames_ = c.predict ? c.horizon : 0;
     const size_t fs = static_cast<size_t>(3 * n_);
-    prev_.assign(fs, kNaN);
-    cur_.assign(fs, kNaN);
-    interp_.assign(fs, kNaN);
+    prev_.assign(fs, kNaNf);
+    cur_.assign(fs, kNaNf);
+    interp_.assign(fs, kNaNf);
     for (int k = 0; k < kStgaeMaxPhases; ++k) {
       streams_[static_cast<size_t>(k)] = std::make_unique<StgaeStream<float>>(model_->net);
       auto& o = out_[static_cast<size_t>(k)];
-      o.path.assign(fs * static_cast<size_t>(dt_frames_ + 1), kNaN);
-      o.den_prev.assign(fs, kNaN);
+      o.path.assign(fs * static_cast<size_t>(dt_frames_ + 1), kNaNf);
+      o.den_prev.assign(fs, kNaNf);
       bounds_[static_cast<size_t>(k)] = CorrectionBound(dt_frames_ + 1);
     }
     smoother_ = PredictionSmoother(dt_frames_ + 1);
@@ -88,7 +86,7 @@ class StgaeFilter final : public PoseFilter {
     bool any = false;
     for (int j = 0; j < n_; ++j) {
       const bool ok = joint_finite(observed, j);
-      for (int c = 0; c < 3; ++c) cur_[static_cast<size_t>(3 * j + c)] = ok ? static_cast<float>(observed(j, c)) : kNaN;
+      for (int c = 0; c < 3; ++c) cur_[static_cast<size_t>(3 * j + c)] = ok ? static_cast<float>(observed(j, c)) : kNaNf;
       if (ok) seen_t_[static_cast<size_t>(j)] = t;
       any = any || ok;
     }

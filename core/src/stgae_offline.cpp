@@ -15,8 +15,6 @@
 namespace hs {
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
 // One segment of tracked rows resampled onto the model grid.
 struct Segment {
   StgaeFrames<float> grid;

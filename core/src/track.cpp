@@ -15,7 +15,6 @@ namespace hs {
 
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kAbsurdMetres = 1000.0;  // a coordinate beyond 1 km is not a hand
 constexpr int kColumns = 2 + 3 * kJointCount;
 

@@ -11,8 +11,6 @@
 namespace hs::layer {
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
 double reset_gap_s(const LayerConfig& c) {
   return is_network(c.filter.method) ? std::min(c.filter.max_gap_s, kModelResetGapS) : c.filter.max_gap_s;
 }

@@ -14,11 +14,6 @@ torch::Tensor to_tensor(const Eigen::MatrixXd& m) {
   return t.to(torch::kFloat32);
 }
 
-torch::Tensor default_uniform(std::vector<int64_t> shape, int64_t fan_in) {
-  const double a = 1.0 / std::sqrt(static_cast<double>(std::max<int64_t>(fan_in, 1)));
-  return torch::empty(shape).uniform_(-a, a);
-}
-
 }  // namespace
 
 DgnBlockImpl::DgnBlockImpl(const dgn::DgnGraph& g, int cin, int cout, bool linear_) : linear(linear_) {

@@ -14,13 +14,12 @@
 
 namespace hs::train {
 
-namespace {
-
-// PyTorch's default initialisation of conv/linear layers: U(-1/sqrt(fan_in), 1/sqrt(fan_in)).
 torch::Tensor default_uniform(std::vector<int64_t> shape, int64_t fan_in) {
   const double a = 1.0 / std::sqrt(static_cast<double>(std::max<int64_t>(fan_in, 1)));
   return torch::empty(shape).uniform_(-a, a);
 }
+
+namespace {
 
 torch::nn::Module& holder(torch::nn::Module& parent, const std::string& name) {
   return *parent.register_module(name, std::make_shared<torch::nn::Module>());

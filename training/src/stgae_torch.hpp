@@ -24,6 +24,9 @@ namespace hs::train {
 // whole = mean over all L frames of the window (broadcast back to every frame).
 using TimeMean = StgaeTimeMean;
 
+// PyTorch's default initialisation of conv/linear layers: U(-1/sqrt(fan_in), 1/sqrt(fan_in)).
+torch::Tensor default_uniform(std::vector<int64_t> shape, int64_t fan_in);
+
 // W x + b over the last axis; weight [out, in] (PyTorch Conv/Linear layout).
 struct Conv1x1Impl : torch::nn::Module {
   Conv1x1Impl(int in, int out, bool bias);

@@ -14,8 +14,6 @@
 namespace hs::bench {
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
 // Results by cell key, then method.
 using Index = std::map<std::string, std::map<std::string, const Result*>>;
 Index index_of(const Report& r) {

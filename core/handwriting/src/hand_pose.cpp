@@ -19,8 +19,6 @@ namespace hs {
 
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
 Eigen::Vector3d joint(const Pose& p, Joint j) { return p.row(idx(j)).transpose(); }
 void set_joint(Pose& p, int j, const Eigen::Vector3d& v) { p.row(j) = v.transpose(); }
 

@@ -4,12 +4,17 @@
 #include <Eigen/Core>
 
 #include <array>
+#include <limits>
 #include <string>
 #include <string_view>
 #include <utility>
 #include <vector>
 
 namespace hs {
+
+// A missing coordinate (a joint a row, pose or frame lacks) is NaN everywhere.
+inline constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+inline constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
 
 // The canonical skeleton: the 26-joint OpenXR hand in XrHandJointEXT order.
 inline constexpr int kJointCount = 26;

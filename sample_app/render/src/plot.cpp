@@ -15,8 +15,6 @@ namespace hs::render {
 
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
 struct Range {
   double lo = 0.0, hi = 1.0;
 };
