@@ -153,6 +153,8 @@ std::vector<DataSource> parse_sources(const json& list, const std::string& sourc
         d.exclude = checked<std::vector<std::string>>(v, source, at);
       } else if (name == "weight") {
         d.weight = checked<double>(v, source, at);
+      } else if (name == "distill") {
+        d.distill = checked<bool>(v, source, at);
       } else {
         config_error(source, at, "unknown key");
       }
@@ -231,6 +233,8 @@ TrainConfig config_from_object(const json& j, const std::string& source, std::st
     if (!train_src || !val_src) config_error(source, "data", "train and val source lists go together");
     c.train_sources = parse_sources(*train_src, source, "data.train");
     c.val_sources = parse_sources(*val_src, source, "data.val");
+    for (const auto& [k, e] : entries(*val_src, source, "data.val", "sources"))
+      if (e->contains("distill")) config_error(source, k + ".distill", "only for training sources");
   }
 
   Section aug(j, "augment", source);
@@ -329,6 +333,8 @@ TrainConfig config_from_object(const json& j, const std::string& source, std::st
   tr.get("init", c.init);
   tr.get("init_matching", c.init_matching);
   tr.get("freeze", c.freeze);
+  tr.get("teacher", c.teacher);
+  tr.get("fixed_norm", c.fixed_norm);
   tr.finish();
   for (const auto& f : c.freeze)
     if (f.empty()) config_error(source, "train.freeze", "a prefix must not be empty");
@@ -362,6 +368,7 @@ TrainConfig config_from_object(const json& j, const std::string& source, std::st
   lo.get("predict", c.loss.predict);
   lo.get("predict_smooth", c.loss.predict_smooth);
   lo.get("relative_eps_mm", c.loss.relative_eps_mm);
+  lo.get("distill", c.loss.distill);
   if (const json* st = lo.raw("stages")) {
     if (!st->is_array()) config_error(source, "loss.stages", "expected [{\"epoch\": e, \"bone\": w, ...}, ...]");
     for (size_t i = 0; i < st->size(); ++i) {
@@ -372,7 +379,8 @@ TrainConfig config_from_object(const json& j, const std::string& source, std::st
       LossWeights w = c.loss;
       const std::map<std::string, double*> fields = {{"pose", &w.pose},     {"bone", &w.bone},
                                                      {"symmetry", &w.symmetry}, {"smooth", &w.smooth},
-                                                     {"predict", &w.predict}, {"predict_smooth", &w.predict_smooth}};
+                                                     {"predict", &w.predict}, {"predict_smooth", &w.predict_smooth},
+                                                     {"distill", &w.distill}};
       for (const auto& [k, v] : e.items()) {
         if (k == "epoch") continue;
         const auto it = fields.find(k);
@@ -390,8 +398,17 @@ TrainConfig config_from_object(const json& j, const std::string& source, std::st
   lo.finish();
   if (!(c.loss.relative_eps_mm >= 0 && std::isfinite(c.loss.relative_eps_mm)))
     config_error(source, "loss.relative_eps_mm", "must be finite and >= 0");
-  for (double w : {c.loss.pose, c.loss.bone, c.loss.symmetry, c.loss.smooth, c.loss.predict, c.loss.predict_smooth})
+  for (double w : {c.loss.pose, c.loss.bone, c.loss.symmetry, c.loss.smooth, c.loss.predict, c.loss.predict_smooth,
+                   c.loss.distill})
     if (!(w >= 0 && std::isfinite(w))) config_error(source, "loss", "weights must be finite and >= 0");
+  bool distills = c.loss.distill > 0;
+  for (const auto& [e, w] : c.loss_stages) distills = distills || w.distill > 0;
+  const bool marked = std::any_of(c.train_sources.begin(), c.train_sources.end(), [](const DataSource& d) { return d.distill; });
+  if (distills && c.teacher.empty()) config_error(source, "loss.distill", "needs train.teacher");
+  if (!c.teacher.empty() && !distills) config_error(source, "train.teacher", "needs a loss.distill weight > 0");
+  if (!c.teacher.empty() && !marked)
+    config_error(source, "train.teacher", "needs a data.train source with \"distill\": true");
+  if (marked && c.teacher.empty()) config_error(source, "data.train", "\"distill\" needs train.teacher");
   return c;
 }
 

@@ -28,6 +28,9 @@ struct LossWeights {
   // > 0: the denoising terms of each window are weighted by 1 / (its input's mean squared
   // joint error + relative_eps_mm^2), normalised to mean 1 per batch; 0: plain means.
   double relative_eps_mm = 0.0;
+  // (denoised and, second phase, predicted positions - the teacher's)^2 on the windows of
+  // sources marked "distill", averaged over every window of the batch (train.teacher).
+  double distill = 0.0;
 };
 
 struct TrainConfig {
@@ -74,6 +77,14 @@ struct TrainConfig {
   // with one of these prefixes are not trained, and their BatchNorm statistics are not
   // updated: {"enc", "pre"} trains the denoising decoder alone. Each must name some.
   std::vector<std::string> freeze;
+  // A model file (.hsm) of the same network configuration whose answers the windows of
+  // sources marked "distill" are also taught (loss.distill): a fine-tune on new data that
+  // keeps the teacher's behaviour on the data it was fitted to. Empty: none.
+  std::string teacher;
+  // BatchNorm layers normalise with their running statistics in training too, and keep
+  // them: a fine-tune keeps the model's normalisation (with other data in the batches, the
+  // batch statistics, and the running ones they update, are not those it was fitted with).
+  bool fixed_norm = false;
   LossWeights loss;
   // Training-loss weights from an epoch on ("loss.stages"); validation always uses `loss`,
   // so that validation losses stay comparable across stages.

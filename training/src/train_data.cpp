@@ -302,6 +302,7 @@ Window WindowSampler::draw(std::mt19937_64& rng) const {
   const auto& clip = clips_->clips[c];
   const size_t len = static_cast<size_t>(T_ + DT_);
   Window w;
+  w.group = static_cast<int>(g);
   w.truth.assign(clip.begin() + s, clip.begin() + s + static_cast<long>(len));
   if (chance(rng, augment_.still_prob)) {
     const size_t held = std::uniform_int_distribution<size_t>(0, len - 1)(rng);

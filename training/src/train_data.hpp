@@ -65,6 +65,8 @@ struct DataSource {
   bool fpha = false;
   std::vector<std::string> include, exclude;
   double weight = 1.0;  // share of the training windows drawn from this source
+  // Its windows are also taught the teacher model's answers (train.teacher, loss.distill).
+  bool distill = false;
 };
 inline DataSource fpha_source(const std::filesystem::path& root, std::vector<int> subjects) {
   DataSource d;
@@ -102,6 +104,7 @@ std::vector<HandSeries> load_fpha_subjects(const std::filesystem::path& root, co
 struct Window {
   std::vector<Pose> input;
   std::vector<Pose> truth;
+  int group = 0;  // the training source it was drawn from (ClipSet group)
 };
 
 // A domain-randomised corruption for one window at rate_hz: white or AR(1) jitter

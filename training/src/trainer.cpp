@@ -23,6 +23,7 @@
 #include <fstream>
 #include <limits>
 #include <map>
+#include <optional>
 #include <sstream>
 
 namespace hs::train {
@@ -47,6 +48,7 @@ struct Batch {
   torch::Tensor feat;   // [B, T, N, 6]
   torch::Tensor x;      // [B, T, N, 3] filled input
   torch::Tensor truth;  // [B, T + DT, N, 3]
+  torch::Tensor distill;  // [B], 1 for windows taught the teacher's answers (loss.distill)
   std::vector<Eigen::RowVector3d> origin;  // per window, added back for metrics
 };
 
@@ -64,11 +66,12 @@ class BatchBuilder {
     tbuf_.reserve(static_cast<size_t>(capacity) * (T_ + DT_) * N * 3);
   }
   // false when the window is not valid input (nothing tracked in its first frame).
-  bool add(const Window& w) {
+  bool add(const Window& w, bool distill = false) {
     if (!input_features(w.input, c_.shape_scale_m, c_.velocity_scale_m, feat_.data(), filled_.data())) return false;
     const size_t last = static_cast<size_t>(T_ - 1) * N * 3 + static_cast<size_t>(idx(Joint::Wrist)) * 3;
     const Eigen::RowVector3d o(filled_[last], filled_[last + 1], filled_[last + 2]);
     origin_.push_back(o);
+    dbuf_.push_back(distill ? 1.0f : 0.0f);
     for (double v : feat_) fbuf_.push_back(static_cast<float>(v));
     for (size_t i = 0; i < filled_.size(); ++i) xbuf_.push_back(static_cast<float>(filled_[i] - o[static_cast<long>(i % 3)]));
     for (int t = 0; t < T_ + DT_; ++t)
@@ -83,8 +86,10 @@ class BatchBuilder {
     b.feat = torch::from_blob(fbuf_.data(), {B, T_, N, 6}, torch::kFloat32).clone();
     b.x = torch::from_blob(xbuf_.data(), {B, T_, N, 3}, torch::kFloat32).clone();
     b.truth = torch::from_blob(tbuf_.data(), {B, T_ + DT_, N, 3}, torch::kFloat32).clone();
+    b.distill = torch::from_blob(dbuf_.data(), {B}, torch::kFloat32).clone();
     b.origin = std::move(origin_);
     origin_.clear();
+    dbuf_.clear();
     fbuf_.clear();
     xbuf_.clear();
     tbuf_.clear();
@@ -95,7 +100,7 @@ class BatchBuilder {
   const StgaeConfig& c_;
   int T_, DT_;
   std::vector<double> feat_, filled_;
-  std::vector<float> fbuf_, xbuf_, tbuf_;
+  std::vector<float> fbuf_, xbuf_, tbuf_, dbuf_;
   std::vector<Eigen::RowVector3d> origin_;
 };
 
@@ -115,7 +120,7 @@ torch::Tensor second_difference(const torch::Tensor& p, int64_t dim) {
 
 struct Losses {
   torch::Tensor total;
-  double pose = 0, bone = 0, sym = 0, smooth = 0, pred = 0, pred_smooth = 0;
+  double pose = 0, bone = 0, sym = 0, smooth = 0, pred = 0, pred_smooth = 0, distill = 0;
 };
 
 class LossFn {
@@ -128,7 +133,8 @@ class LossFn {
     sym_a_ = edge_index(s.symmetry, true);
     sym_b_ = edge_index(s.symmetry, false);
   }
-  Losses operator()(const TorchOutput& out, const Batch& b, bool with_pred) const {
+  // teacher: the teacher model's output on the same batch (loss.distill), or null.
+  Losses operator()(const TorchOutput& out, const Batch& b, bool with_pred, const TorchOutput* teacher = nullptr) const {
     const int T = static_cast<int>(b.x.size(1));
     const auto X = denoised_positions(model_, b.x, out);
     const auto Xt = b.truth.narrow(1, 0, T);
@@ -194,6 +200,22 @@ class LossFn {
         total = total + w_.predict * pred;
         l.pred = pred.item<double>();
       }
+    }
+    if (teacher && w_.distill > 0) {
+      // Per window, the mean squared difference from the teacher's answers; summed over the
+      // marked windows and divided by all of them, so the weight is per window drawn.
+      const auto Xd = denoised_positions(model_, b.x, *teacher).detach();
+      auto per = (X - Xd).pow(2).mean({1, 2, 3});
+      if (with_pred && model_.predict) {
+        const auto Y = predicted_positions(model_, X, out);
+        const auto Yd = predicted_positions(model_, Xd, *teacher).detach();
+        std::vector<int64_t> dims;
+        for (int64_t d = 1; d < Y.dim(); ++d) dims.push_back(d);
+        per = per + (Y - Yd).pow(2).mean(dims);
+      }
+      auto distill = (per * b.distill).mean() * kCm2;
+      total = total + w_.distill * distill;
+      l.distill = distill.item<double>();
     }
     l.total = total;
     return l;
@@ -424,6 +446,19 @@ void save_model(StgaeNetImpl& net, const TrainConfig& c, const std::filesystem::
   (void)load_hsm(out, true);  // the file we ship must load and verify
 }
 
+// The weights of a model file (path, named by the config key `key`) into net; its network
+// configuration must equal `model`.
+void import_same_network(StgaeNetImpl& net, const StgaeConfig& model, const std::string& path, const std::string& key) {
+  const auto m = load_hsm(path, true);
+  StgaeConfig a = m->config, b = model;
+  a.meta_json.clear();
+  b.meta_json.clear();
+  if (to_json(a) != to_json(b))
+    throw InputError(SourceLocation{path, 0, "config"},
+                     key + ": the model's network configuration differs from the config's \"model\"");
+  import_weights(net, m->weights);
+}
+
 }  // namespace
 
 // ---- training --------------------------------------------------------------------------
@@ -498,12 +533,9 @@ TrainResult train_stgae(const TrainConfig& cfg, const TrainOptions& opt, std::os
   if (!c.init.empty() && !opt.resume) {
     // Fine-tuning: the same network, its weights (BatchNorm statistics included) from a
     // model file; Adam starts afresh.
-    const auto m = load_hsm(c.init, true);
-    StgaeConfig a = m->config, b = c.model;
-    a.meta_json.clear();
-    b.meta_json.clear();
     if (c.init_matching) {
-      if (a.family != b.family || a.skeleton != b.skeleton)
+      const auto m = load_hsm(c.init, true);
+      if (m->config.family != c.model.family || m->config.skeleton != c.model.skeleton)
         throw InputError(SourceLocation{c.init, 0, "config"},
                          "train.init: the model's family or skeleton differs from the config's \"model\"");
       const auto left = import_matching_weights(*net, m->weights);
@@ -513,12 +545,21 @@ TrainResult train_stgae(const TrainConfig& cfg, const TrainOptions& opt, std::os
       for (const auto& name : left) log << " " << name;
       if (!left.empty()) log << "\n";
     } else {
-      if (to_json(a) != to_json(b))
-        throw InputError(SourceLocation{c.init, 0, "config"},
-                         "train.init: the model's network configuration differs from the config's \"model\"");
-      import_weights(*net, m->weights);
+      import_same_network(*net, c.model, c.init, "train.init");
       log << "initialised from " << c.init << "\n";
     }
+  }
+  // Distillation (train.teacher): the teacher runs without gradients on the same batches,
+  // its BatchNorm as the student's (train.fixed_norm: the running statistics; else the
+  // batch's, or the two would differ before any step and the student learn the difference).
+  std::shared_ptr<StgaeNetImpl> teacher;
+  std::vector<bool> group_distill;
+  if (!c.teacher.empty()) {
+    teacher = std::make_shared<StgaeNetImpl>(c.model);
+    import_same_network(*teacher, c.model, c.teacher, "train.teacher");
+    for (auto& p : teacher->parameters()) p.set_requires_grad(false);
+    for (const auto& s : c.train_sources) group_distill.push_back(s.distill);
+    log << "teacher " << c.teacher << " for the windows of the sources marked \"distill\"\n";
   }
   if (opt.resume) {
     torch::serialize::InputArchive ar;
@@ -565,20 +606,36 @@ TrainResult train_stgae(const TrainConfig& cfg, const TrainOptions& opt, std::os
     if (n_frozen > 0)
       for (const auto& m : net->named_modules("", false))
         if (frozen(m.key())) m.value()->eval();
+    if (c.fixed_norm)
+      for (const auto& m : net->modules(false))
+        if (dynamic_cast<ChannelNormImpl*>(m.get())) m->eval();
     ProgressBar bar(opt.progress,
                     "epoch " + std::to_string(epoch + 1) + "/" + std::to_string(c.epochs) + (joint ? " [joint]" : " [denoise]"),
                     steps, std::isfinite(mean_epoch_s) ? mean_epoch_s * (c.epochs - epoch - 1) : std::numeric_limits<double>::quiet_NaN());
-    double loss_sum = 0, data_s = 0;
+    double loss_sum = 0, data_s = 0, distill_sum = 0;
     const LossFn train_loss(c.model, c.loss_at(epoch));
     const bool freeze_graph = epoch < c.freeze_graph_epochs;
     for (int s = 0; s < steps; ++s) {
       const auto td = Clock::now();
-      while (builder.size() < c.batch) builder.add(sampler.draw(rng));
+      while (builder.size() < c.batch) {
+        const Window w = sampler.draw(rng);
+        const auto g = static_cast<size_t>(w.group);
+        builder.add(w, teacher && g < group_distill.size() && group_distill[g]);
+      }
       const Batch b = builder.take();
       data_s += since(td);
       adam.zero_grad();
       const auto out = net->forward(b.feat, c.predict_frames);
-      const auto l = train_loss(out, b, joint);
+      std::optional<TorchOutput> tout;
+      if (teacher && c.loss_at(epoch).distill > 0) {
+        torch::NoGradGuard no_grad;
+        if (c.fixed_norm)
+          teacher->eval();
+        else
+          teacher->train();
+        tout = teacher->forward(b.feat, c.predict_frames);
+      }
+      const auto l = train_loss(out, b, joint, tout ? &*tout : nullptr);
       l.total.backward();
       if (freeze_graph)
         for (auto& p : graph_params)
@@ -588,6 +645,7 @@ TrainResult train_stgae(const TrainConfig& cfg, const TrainOptions& opt, std::os
       const double lv = l.total.item<double>();
       if (!std::isfinite(lv)) throw std::runtime_error("train: the loss became non-finite at epoch " + std::to_string(epoch + 1));
       loss_sum += lv;
+      distill_sum += l.distill;
       bar.update(s + 1, loss_sum / (s + 1));
     }
 
@@ -644,7 +702,9 @@ TrainResult train_stgae(const TrainConfig& cfg, const TrainOptions& opt, std::os
       s.setf(std::ios::fixed);
       s.precision(4);
       s << "epoch " << epoch + 1 << "/" << c.epochs << (joint ? " joint" : " denoise") << " lr " << lr << " train "
-        << rep.train_loss << " val " << rep.val_loss << (rep.best ? " (best, saved)" : "");
+        << rep.train_loss;
+      if (teacher) s << " (distill " << distill_sum / std::max(steps, 1) << ")";
+      s << " val " << rep.val_loss << (rep.best ? " (best, saved)" : "");
       s.precision(1);
       s << " " << rep.seconds << " s (batches " << data_s << " s, optimisation " << train_s - data_s
         << " s, validation " << val_s << " s)\n";

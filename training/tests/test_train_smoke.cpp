@@ -387,6 +387,23 @@ TEST_CASE("training config errors name the key") {
   CHECK(error_field(R"({"model": {}, "train": {"init": 3}})") == "train.init");
   CHECK(error_field(R"({"model": {}, "train": {"freeze": "enc"}})") == "train.freeze");
   CHECK(error_field(R"({"model": {}, "train": {"freeze": ["enc", ""]}})") == "train.freeze");
+  // Distillation keys: the teacher, its weight and the marked sources go together.
+  const std::string sources = R"("data": {"train": [{"path": "x", "distill": true}], "val": [{"path": "y"}]})";
+  CHECK(error_field(R"({"model": {}, "loss": {"distill": 1}})") == "loss.distill");
+  CHECK(error_field(R"({"model": {}, "loss": {"stages": [{"epoch": 2, "distill": 1}]}})") == "loss.distill");
+  CHECK(error_field(R"({"model": {}, "train": {"teacher": "t.hsm"}, "loss": {"distill": 1}})") == "train.teacher");
+  CHECK(error_field(R"({"model": {}, )" + sources + R"(, "train": {"teacher": "t.hsm"}})") == "train.teacher");
+  CHECK(error_field(R"({"model": {}, )" + sources + R"(})") == "data.train");
+  CHECK(error_field(R"({"model": {}, "data": {"train": [{"path": "x", "distill": 1}], "val": [{"path": "y"}]}})") ==
+        "data.train[0].distill");
+  CHECK(error_field(R"({"model": {}, "data": {"train": [{"path": "x"}], "val": [{"path": "y", "distill": true}]}})") ==
+        "data.val[0].distill");
+  const auto d = parse_train_config(R"({"model": {}, )" + sources + R"(, "train": {"teacher": "t.hsm"}, "loss": {"distill": 2}})");
+  CHECK(d.train_sources[0].distill);
+  CHECK(d.teacher == "t.hsm");
+  CHECK(d.loss.distill == 2.0);
+  CHECK(error_field(R"({"model": {}, "train": {"fixed_norm": 1}})") == "train.fixed_norm");
+  CHECK(parse_train_config(R"({"model": {}, "train": {"fixed_norm": true}})").fixed_norm);
   const auto c = parse_train_config(R"({"model": {}, "train": {"lr": [[0, 0.01], [5, 0.001]]}})");
   CHECK(learning_rate(c, 4) == 0.01);
   CHECK(learning_rate(c, 5) == 0.001);
@@ -661,6 +678,76 @@ TEST_CASE("two tiny epochs on synthetic motion: the loss decreases, the model fi
     }
     CHECK(msg.find("train.freeze") != std::string::npos);
     CHECK(msg.find("decoder") != std::string::npos);
+
+    // train.fixed_norm: every BatchNorm keeps its running statistics; the weights train.
+    ft.freeze.clear();
+    ft.fixed_norm = true;
+    o.out = dir / "fixed_norm.hsm";
+    std::ostringstream ln;
+    (void)train_stgae(ft, o, ln);
+    INFO(ln.str());
+    const auto fixed = load_hsm(o.out, true);
+    int stats = 0, trained = 0;
+    for (const auto& [name, t] : before->weights.tensors) {
+      const bool eq = t.data == fixed->weights.at(name).data;
+      if (name.ends_with("running_mean") || name.ends_with("running_var")) {
+        CHECK_MESSAGE(eq, name);
+        ++stats;
+      } else {
+        trained += eq ? 0 : 1;
+      }
+    }
+    CHECK(stats > 10);
+    CHECK(trained > 10);
+  }
+
+  // Distillation (train.teacher): trained on the teacher's answers alone (every truth term
+  // off), a network from random weights denoises and predicts far better than one that did
+  // not learn; with no window marked, the distillation term is zero and it learns nothing.
+  {
+    TrainConfig ds = config;
+    ds.epochs = 2;
+    ds.denoise_only_epochs = 1;
+    ds.lr = {{0, 0.01}};
+    ds.loss.pose = ds.loss.bone = ds.loss.symmetry = ds.loss.smooth = ds.loss.predict = ds.loss.predict_smooth = 0;
+    ds.loss.distill = 1;
+    ds.teacher = out.string();
+    ds.train_sources[0].distill = true;  // synthetic motion: one group, this source's place
+    TrainOptions o;
+    o.progress = false;
+    o.out = dir / "distilled.hsm";
+    std::ostringstream l;
+    const TrainResult rd = train_stgae(ds, o, l);
+    INFO(l.str());
+    CHECK(l.str().find("teacher " + out.string()) != std::string::npos);
+    ds.train_sources[0].distill = false;
+    o.out = dir / "unmarked.hsm";
+    const TrainResult ru = train_stgae(ds, o, l);
+    REQUIRE(rd.epochs.size() == 2);
+    REQUIRE(ru.epochs.size() == 2);
+    CHECK(ru.epochs[1].train_loss == 0.0);
+    CHECK(rd.epochs[1].train_loss > 0.0);
+    // (the validation loss weighs the truth terms only, all 0 here: compare the metrics)
+    const auto& vd = rd.epochs[1].val[0];
+    const auto& vu = ru.epochs[1].val[0];
+    CHECK(vd.denoised_mpjpe_mm < 0.8 * vu.denoised_mpjpe_mm);
+    REQUIRE(vd.predicted_mpjpe_mm.size() == 2);
+    CHECK(vd.predicted_mpjpe_mm[1] < vu.predicted_mpjpe_mm[1]);
+    // A teacher of another architecture is refused, naming the file and the key.
+    TrainConfig bad = other;
+    bad.teacher = out.string();
+    bad.loss.distill = 1;
+    bad.train_sources[0].distill = true;
+    bad.epochs = 1;
+    o.out = dir / "bad_teacher.hsm";
+    std::string msg;
+    try {
+      (void)train_stgae(bad, o, l);
+    } catch (const InputError& e) {
+      msg = e.what();
+    }
+    CHECK(msg.find(out.string()) != std::string::npos);
+    CHECK(msg.find("train.teacher") != std::string::npos);
   }
   std::filesystem::remove_all(dir);
 }
