@@ -369,6 +369,7 @@ TrainConfig config_from_object(const json& j, const std::string& source, std::st
   lo.get("predict_smooth", c.loss.predict_smooth);
   lo.get("relative_eps_mm", c.loss.relative_eps_mm);
   lo.get("distill", c.loss.distill);
+  lo.get("distill_displacement", c.loss.distill_displacement);
   if (const json* st = lo.raw("stages")) {
     if (!st->is_array()) config_error(source, "loss.stages", "expected [{\"epoch\": e, \"bone\": w, ...}, ...]");
     for (size_t i = 0; i < st->size(); ++i) {
@@ -380,7 +381,7 @@ TrainConfig config_from_object(const json& j, const std::string& source, std::st
       const std::map<std::string, double*> fields = {{"pose", &w.pose},     {"bone", &w.bone},
                                                      {"symmetry", &w.symmetry}, {"smooth", &w.smooth},
                                                      {"predict", &w.predict}, {"predict_smooth", &w.predict_smooth},
-                                                     {"distill", &w.distill}};
+                                                     {"distill", &w.distill}, {"distill_displacement", &w.distill_displacement}};
       for (const auto& [k, v] : e.items()) {
         if (k == "epoch") continue;
         const auto it = fields.find(k);
@@ -399,13 +400,14 @@ TrainConfig config_from_object(const json& j, const std::string& source, std::st
   if (!(c.loss.relative_eps_mm >= 0 && std::isfinite(c.loss.relative_eps_mm)))
     config_error(source, "loss.relative_eps_mm", "must be finite and >= 0");
   for (double w : {c.loss.pose, c.loss.bone, c.loss.symmetry, c.loss.smooth, c.loss.predict, c.loss.predict_smooth,
-                   c.loss.distill})
+                   c.loss.distill, c.loss.distill_displacement})
     if (!(w >= 0 && std::isfinite(w))) config_error(source, "loss", "weights must be finite and >= 0");
-  bool distills = c.loss.distill > 0;
-  for (const auto& [e, w] : c.loss_stages) distills = distills || w.distill > 0;
+  bool distills = c.loss.distills();
+  for (const auto& [e, w] : c.loss_stages) distills = distills || w.distills();
   const bool marked = std::any_of(c.train_sources.begin(), c.train_sources.end(), [](const DataSource& d) { return d.distill; });
-  if (distills && c.teacher.empty()) config_error(source, "loss.distill", "needs train.teacher");
-  if (!c.teacher.empty() && !distills) config_error(source, "train.teacher", "needs a loss.distill weight > 0");
+  if (distills && c.teacher.empty()) config_error(source, "loss.distill", "a distillation weight needs train.teacher");
+  if (!c.teacher.empty() && !distills)
+    config_error(source, "train.teacher", "needs a loss.distill or loss.distill_displacement weight > 0");
   if (!c.teacher.empty() && !marked)
     config_error(source, "train.teacher", "needs a data.train source with \"distill\": true");
   if (marked && c.teacher.empty()) config_error(source, "data.train", "\"distill\" needs train.teacher");

@@ -31,6 +31,10 @@ struct LossWeights {
   // (denoised and, second phase, predicted positions - the teacher's)^2 on the windows of
   // sources marked "distill", averaged over every window of the batch (train.teacher).
   double distill = 0.0;
+  // (predicted displacement from the denoised frame - the teacher's)^2 on the same windows
+  // (second phase): the teacher's motion ahead, whatever the denoised frame it starts from.
+  double distill_displacement = 0.0;
+  bool distills() const { return distill > 0 || distill_displacement > 0; }
 };
 
 struct TrainConfig {

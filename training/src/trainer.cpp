@@ -215,7 +215,16 @@ class LossFn {
       }
       auto distill = (per * b.distill).mean() * kCm2;
       total = total + w_.distill * distill;
-      l.distill = distill.item<double>();
+      l.distill += distill.item<double>();
+    }
+    if (teacher && w_.distill_displacement > 0 && with_pred && model_.predict) {
+      // predicted_positions = the denoised frame + shape_scale_m * predicted_offset.
+      const auto d = (out.predicted_offset - teacher->predicted_offset.detach()) * model_.shape_scale_m;
+      std::vector<int64_t> dims;
+      for (int64_t k = 1; k < d.dim(); ++k) dims.push_back(k);
+      auto displacement = (d.pow(2).mean(dims) * b.distill).mean() * kCm2;
+      total = total + w_.distill_displacement * displacement;
+      l.distill += displacement.item<double>();
     }
     l.total = total;
     return l;
@@ -627,7 +636,7 @@ TrainResult train_stgae(const TrainConfig& cfg, const TrainOptions& opt, std::os
       adam.zero_grad();
       const auto out = net->forward(b.feat, c.predict_frames);
       std::optional<TorchOutput> tout;
-      if (teacher && c.loss_at(epoch).distill > 0) {
+      if (teacher && c.loss_at(epoch).distills()) {
         torch::NoGradGuard no_grad;
         if (c.fixed_norm)
           teacher->eval();

@@ -402,6 +402,10 @@ TEST_CASE("training config errors name the key") {
   CHECK(d.train_sources[0].distill);
   CHECK(d.teacher == "t.hsm");
   CHECK(d.loss.distill == 2.0);
+  CHECK(error_field(R"({"model": {}, "loss": {"distill_displacement": 1}})") == "loss.distill");
+  CHECK(parse_train_config(R"({"model": {}, )" + sources +
+                           R"(, "train": {"teacher": "t.hsm"}, "loss": {"distill_displacement": 3}})")
+            .loss.distill_displacement == 3.0);
   CHECK(error_field(R"({"model": {}, "train": {"fixed_norm": 1}})") == "train.fixed_norm");
   CHECK(parse_train_config(R"({"model": {}, "train": {"fixed_norm": true}})").fixed_norm);
   const auto c = parse_train_config(R"({"model": {}, "train": {"lr": [[0, 0.01], [5, 0.001]]}})");
@@ -733,6 +737,16 @@ TEST_CASE("two tiny epochs on synthetic motion: the loss decreases, the model fi
     CHECK(vd.denoised_mpjpe_mm < 0.8 * vu.denoised_mpjpe_mm);
     REQUIRE(vd.predicted_mpjpe_mm.size() == 2);
     CHECK(vd.predicted_mpjpe_mm[1] < vu.predicted_mpjpe_mm[1]);
+    // The displacement term alone: nothing to learn in the denoising phase, something in
+    // the joint one.
+    ds.train_sources[0].distill = true;
+    ds.loss.distill = 0;
+    ds.loss.distill_displacement = 1;
+    o.out = dir / "displacement.hsm";
+    const TrainResult rm = train_stgae(ds, o, l);
+    REQUIRE(rm.epochs.size() == 2);
+    CHECK(rm.epochs[0].train_loss == 0.0);
+    CHECK(rm.epochs[1].train_loss > 0.0);
     // A teacher of another architecture is refused, naming the file and the key.
     TrainConfig bad = other;
     bad.teacher = out.string();
