@@ -54,6 +54,17 @@ const char* kTinyConfig = R"({
   "loss": {"smooth": 0.1}
 })";
 
+// The message of the InputError a training run stops with ("" when it runs).
+std::string train_error(const TrainConfig& config, const TrainOptions& opt) {
+  std::ostringstream log;
+  try {
+    (void)train_stgae(config, opt, log);
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
 // The key a config error names ("(no error)" when the config parses).
 std::string error_field(const std::string& text) {
   try {
@@ -643,12 +654,7 @@ TEST_CASE("two tiny epochs on synthetic motion: the loss decreases, the model fi
     bad.init = out.string();
     bad.epochs = 1;
     o.out = dir / "bad.hsm";
-    std::string msg;
-    try {
-      (void)train_stgae(bad, o, l);
-    } catch (const InputError& e) {
-      msg = e.what();
-    }
+    std::string msg = train_error(bad, o);
     CHECK(msg.find(out.string()) != std::string::npos);
     CHECK(msg.find("train.init") != std::string::npos);
 
@@ -674,12 +680,7 @@ TEST_CASE("two tiny epochs on synthetic motion: the loss decreases, the model fi
     CHECK(same > 10);
     CHECK(changed > 3);
     ft.freeze = {"enc", "decoder"};
-    msg.clear();
-    try {
-      (void)train_stgae(ft, o, lf);
-    } catch (const InputError& e) {
-      msg = e.what();
-    }
+    msg = train_error(ft, o);
     CHECK(msg.find("train.freeze") != std::string::npos);
     CHECK(msg.find("decoder") != std::string::npos);
 
@@ -754,12 +755,7 @@ TEST_CASE("two tiny epochs on synthetic motion: the loss decreases, the model fi
     bad.train_sources[0].distill = true;
     bad.epochs = 1;
     o.out = dir / "bad_teacher.hsm";
-    std::string msg;
-    try {
-      (void)train_stgae(bad, o, l);
-    } catch (const InputError& e) {
-      msg = e.what();
-    }
+    const std::string msg = train_error(bad, o);
     CHECK(msg.find(out.string()) != std::string::npos);
     CHECK(msg.find("train.teacher") != std::string::npos);
   }
