@@ -118,6 +118,9 @@ torch::Tensor second_difference(const torch::Tensor& p, int64_t dim) {
   return p.narrow(dim, 2, n - 2) - 2 * p.narrow(dim, 1, n - 2) + p.narrow(dim, 0, n - 2);
 }
 
+// Mean over everything but the first (window) axis: [B, ...] -> [B].
+torch::Tensor per_window_mean(const torch::Tensor& t) { return t.reshape({t.size(0), -1}).mean(1); }
+
 struct Losses {
   torch::Tensor total;
   double pose = 0, bone = 0, sym = 0, smooth = 0, pred = 0, pred_smooth = 0, distill = 0;
@@ -151,7 +154,7 @@ class LossFn {
     }
     const auto wmean = [&w](const torch::Tensor& err) {
       if (!w.defined()) return err.mean();
-      return (err.reshape({err.size(0), -1}).mean(1) * w).mean();
+      return (per_window_mean(err) * w).mean();
     };
     auto pose = wmean((X - Xt).pow(2)) * kCm2;
     auto total = w_.pose * pose;
@@ -205,13 +208,11 @@ class LossFn {
       // Per window, the mean squared difference from the teacher's answers; summed over the
       // marked windows and divided by all of them, so the weight is per window drawn.
       const auto Xd = denoised_positions(model_, b.x, *teacher).detach();
-      auto per = (X - Xd).pow(2).mean({1, 2, 3});
+      auto per = per_window_mean((X - Xd).pow(2));
       if (with_pred && model_.predict) {
         const auto Y = predicted_positions(model_, X, out);
         const auto Yd = predicted_positions(model_, Xd, *teacher).detach();
-        std::vector<int64_t> dims;
-        for (int64_t d = 1; d < Y.dim(); ++d) dims.push_back(d);
-        per = per + (Y - Yd).pow(2).mean(dims);
+        per = per + per_window_mean((Y - Yd).pow(2));
       }
       auto distill = (per * b.distill).mean() * kCm2;
       total = total + w_.distill * distill;
@@ -220,9 +221,7 @@ class LossFn {
     if (teacher && w_.distill_displacement > 0 && with_pred && model_.predict) {
       // predicted_positions = the denoised frame + shape_scale_m * predicted_offset.
       const auto d = (out.predicted_offset - teacher->predicted_offset.detach()) * model_.shape_scale_m;
-      std::vector<int64_t> dims;
-      for (int64_t k = 1; k < d.dim(); ++k) dims.push_back(k);
-      auto displacement = (d.pow(2).mean(dims) * b.distill).mean() * kCm2;
+      auto displacement = (per_window_mean(d.pow(2)) * b.distill).mean() * kCm2;
       total = total + w_.distill_displacement * displacement;
       l.distill += displacement.item<double>();
     }
@@ -562,12 +561,11 @@ TrainResult train_stgae(const TrainConfig& cfg, const TrainOptions& opt, std::os
   // its BatchNorm as the student's (train.fixed_norm: the running statistics; else the
   // batch's, or the two would differ before any step and the student learn the difference).
   std::shared_ptr<StgaeNetImpl> teacher;
-  std::vector<bool> group_distill;
   if (!c.teacher.empty()) {
     teacher = std::make_shared<StgaeNetImpl>(c.model);
     import_same_network(*teacher, c.model, c.teacher, "train.teacher");
     for (auto& p : teacher->parameters()) p.set_requires_grad(false);
-    for (const auto& s : c.train_sources) group_distill.push_back(s.distill);
+    teacher->train(!c.fixed_norm);
     log << "teacher " << c.teacher << " for the windows of the sources marked \"distill\"\n";
   }
   if (opt.resume) {
@@ -628,8 +626,9 @@ TrainResult train_stgae(const TrainConfig& cfg, const TrainOptions& opt, std::os
       const auto td = Clock::now();
       while (builder.size() < c.batch) {
         const Window w = sampler.draw(rng);
+        // Groups are the training sources in order (one group for synthetic motion).
         const auto g = static_cast<size_t>(w.group);
-        builder.add(w, teacher && g < group_distill.size() && group_distill[g]);
+        builder.add(w, teacher && g < c.train_sources.size() && c.train_sources[g].distill);
       }
       const Batch b = builder.take();
       data_s += since(td);
@@ -638,10 +637,6 @@ TrainResult train_stgae(const TrainConfig& cfg, const TrainOptions& opt, std::os
       std::optional<TorchOutput> tout;
       if (teacher && c.loss_at(epoch).distills()) {
         torch::NoGradGuard no_grad;
-        if (c.fixed_norm)
-          teacher->eval();
-        else
-          teacher->train();
         tout = teacher->forward(b.feat, c.predict_frames);
       }
       const auto l = train_loss(out, b, joint, tout ? &*tout : nullptr);
