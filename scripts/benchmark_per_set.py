@@ -3,9 +3,36 @@
 # (benchmark.json "results", block "noise"): the per-set figures README quotes.
 # With --by-rate: per input rate and method, the means over cells of MPJPE at H = 0 and
 # 50 ms and of each cell's jitter / the truth's at both (models/MODEL.md's per-rate figures).
+# With --cells A.json LABEL_A B.json LABEL_B: method B against method A (two runs of the same
+# grid and seed, or one run), cell by cell: means at H = 0, 20 and 50 ms, per set at H = 0
+# and 50 ms, and the cells where B's H = 0 MPJPE is more than 0.5 % lower / higher.
 # Usage: scripts/benchmark_per_set.py [--by-rate] out/benchmark/benchmark.json
+#        scripts/benchmark_per_set.py --cells A.json LABEL_A B.json LABEL_B
 import collections, json, sys
 args = sys.argv[1:]
+if args[:1] == ['--cells']:
+    if len(args) != 5:
+        sys.exit('usage: benchmark_per_set.py --cells A.json LABEL_A B.json LABEL_B')
+    def cells(path, label):
+        c = {r['cell']: r for r in json.load(open(path))['results'] if r['block'] == 'noise' and r['method'] == label}
+        if not c:
+            sys.exit(f'{path}: no noise cells of method {label}')
+        return c
+    a, b = cells(args[1], args[2]), cells(args[3], args[4])
+    if a.keys() != b.keys():
+        sys.exit('the two runs have different noise cells')
+    mean = lambda v: sum(v) / len(v)
+    for h in ('h0ms', 'h20ms', 'h50ms'):
+        print(f'{h}: {mean([a[c][h]["mpjpe_mm"] for c in a]):.3f} -> {mean([b[c][h]["mpjpe_mm"] for c in a]):.3f} mm')
+    for s in sorted({r['set'] for r in a.values()}):
+        cs = [c for c in a if a[c]['set'] == s]
+        x0, y0 = mean([a[c]['h0ms']['mpjpe_mm'] for c in cs]), mean([b[c]['h0ms']['mpjpe_mm'] for c in cs])
+        x5, y5 = mean([a[c]['h50ms']['mpjpe_mm'] for c in cs]), mean([b[c]['h50ms']['mpjpe_mm'] for c in cs])
+        print(f'{s}: H = 0 {x0:.3f} -> {y0:.3f} ({100 * (y0 / x0 - 1):+.1f} %), 50 ms {x5:.3f} -> {y5:.3f} ({100 * (y5 / x5 - 1):+.1f} %)')
+    ratio = [b[c]['h0ms']['mpjpe_mm'] / a[c]['h0ms']['mpjpe_mm'] for c in a]
+    print(f'cells better / worse by more than 0.5 % at H = 0: {sum(r < 0.995 for r in ratio)} / '
+          f'{sum(r > 1.005 for r in ratio)} of {len(ratio)}')
+    sys.exit(0)
 by_rate = args[:1] == ['--by-rate']
 if by_rate:
     args = args[1:]
