@@ -35,8 +35,8 @@ void setup_blend(CLI::App& app) {
     const auto out = blend_models(from, o->from, to, o->to, o->alpha);
     const auto tmp = o->out + ".tmp";
     save_hsm(tmp, out.config, out.weights, out.reference);
+    (void)load_hsm(tmp, true);  // the file must load and verify before it takes the name
     std::filesystem::rename(tmp, o->out);
-    (void)load_hsm(o->out, true);  // the file written must load and verify
     fmt::print("blend: {:g} x {} + {:g} x {} -> {}\n", 1.0 - o->alpha, o->from, o->alpha, o->to, o->out);
   });
 }
