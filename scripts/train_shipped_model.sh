@@ -1,31 +1,42 @@
 #!/usr/bin/env bash
-# Trains the shipped Multi-STGAE model (models/handsteady_xr26_causal.hsm) from scratch,
-# the three steps models/MODEL.md describes (about 35 min on a 2-core machine):
-#  1. the base model on FPHA subjects 1-4 (models/configs/shipped_causal_xr26.json);
-#  2. its fine-tune on all recorded training data, BatchNorm statistics kept, taught the
-#     base model's motion ahead on FPHA (models/configs/finetune_distill_motion_xr26.json,
-#     here with this run's base as init and teacher);
+# Trains a shipped model from scratch, the three steps models/MODEL.md describes:
+#  causal (models/handsteady_xr26_causal.hsm, Multi-STGAE, about 35 min on a 2-core machine):
+#   1. the base model on FPHA subjects 1-4 (models/configs/shipped_causal_xr26.json);
+#   2. its fine-tune on all recorded training data, BatchNorm statistics kept, taught the
+#      base model's motion ahead on FPHA (models/configs/finetune_distill_motion_xr26.json);
+#  stgae (models/handsteady_xr26_stgae.hsm, denoise only, about 25 min):
+#   1. the base model (models/configs/stgae_causal_xr26.json);
+#   2. its fine-tune on all recorded training data, BatchNorm statistics kept
+#      (models/configs/stgae_finetune_fixed_norm_xr26.json);
 #  3. the blend 0.3 x base + 0.7 x fine-tune (`handsteady blend`, docs/TRAINING.md).
-# Builds the CLI with training in build/release first.
-# Usage: scripts/train_shipped_model.sh [OUT_DIR]   (default out/shipped; the model is
-#        OUT_DIR/handsteady_xr26_causal.hsm, beside base.hsm, finetune.hsm and their logs)
+# Step 2 starts from (and, for causal, is taught by) this run's base. Builds the CLI with
+# training in build/release first.
+# Usage: scripts/train_shipped_model.sh causal|stgae [OUT_DIR]   (default out/shipped_NAME;
+#        the model is OUT_DIR/handsteady_xr26_NAME.hsm, beside base.hsm, finetune.hsm and their logs)
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 cd "$root"
-out=${1:-out/shipped}
+name=${1:-}
+case "$name" in
+  causal|stgae) ;;
+  *) echo "usage: $0 causal|stgae [OUT_DIR]" >&2; exit 2 ;;
+esac
+out=${2:-out/shipped_$name}
 mkdir -p "$out"
 out=$(cd "$out" && pwd)
+if [ "$name" = causal ]; then
+  base_cfg=shipped_causal_xr26.json; ft_cfg=finetune_distill_motion_xr26.json
+  ft_train="\"init\": \"$out/base.hsm\", \"teacher\": \"$out/base.hsm\""
+else
+  base_cfg=stgae_causal_xr26.json; ft_cfg=stgae_finetune_fixed_norm_xr26.json
+  ft_train="\"init\": \"$out/base.hsm\""
+fi
 scripts/deps.sh all
 cmake -S . -B build/release -DCMAKE_BUILD_TYPE=Release -DHS_BUILD_TRAINING=ON >/dev/null
 cmake --build build/release -j"$(nproc)" --target handsteady
 hs=build/release/cli/handsteady
-$hs train --config models/configs/shipped_causal_xr26.json --out "$out/base.hsm" --threads 1 --quiet | tee "$out/base.log"
-cat > "$out/finetune.json" <<JSON
-{
-  "base": "$root/models/configs/finetune_distill_motion_xr26.json",
-  "train": {"init": "$out/base.hsm", "teacher": "$out/base.hsm"}
-}
-JSON
+$hs train --config "models/configs/$base_cfg" --out "$out/base.hsm" --threads 1 --quiet | tee "$out/base.log"
+printf '{\n  "base": "%s",\n  "train": {%s}\n}\n' "$root/models/configs/$ft_cfg" "$ft_train" > "$out/finetune.json"
 $hs train --config "$out/finetune.json" --out "$out/finetune.hsm" --threads 1 --quiet | tee "$out/finetune.log"
-$hs blend --from "$out/base.hsm" --to "$out/finetune.hsm" --alpha 0.7 --out "$out/handsteady_xr26_causal.hsm"
-echo "train_shipped_model: $out/handsteady_xr26_causal.hsm"
+$hs blend --from "$out/base.hsm" --to "$out/finetune.hsm" --alpha 0.7 --out "$out/handsteady_xr26_$name.hsm"
+echo "train_shipped_model: $out/handsteady_xr26_$name.hsm"

@@ -437,19 +437,23 @@ TEST_CASE("handsteady blend writes a model that loads and verifies, and refuses 
   CHECK(!std::filesystem::exists(dir / "x.hsm"));
 }
 
-TEST_CASE("the shipped causal model is 0.3 x its base + 0.7 x its fine-tune (models/MODEL.md, models/base)") {
+TEST_CASE("the shipped causal and STGAE models are 0.3 x their base + 0.7 x their fine-tune (models/MODEL.md, models/base)") {
   const auto dir = std::filesystem::path(HS_FIXTURES) / ".." / ".." / "models";
-  const auto base = hs::read_hsm_file(dir / "base" / "handsteady_xr26_causal_base.hsm");
-  const auto finetune = hs::read_hsm_file(dir / "base" / "handsteady_xr26_causal_finetune.hsm");
-  const auto shipped = hs::read_hsm_file(dir / "handsteady_xr26_causal.hsm");
-  const auto blend = hs::blend_models(base, "base", finetune, "finetune", 0.7);
-  REQUIRE(shipped.weights.tensors.size() == blend.weights.tensors.size());
-  for (const auto& [name, t] : blend.weights.tensors) {
+  for (const std::string name : {"causal", "stgae"}) {
     CAPTURE(name);
-    CHECK(shipped.weights.at(name).data == t.data);
+    const auto stem = "handsteady_xr26_" + name;
+    const auto base = hs::read_hsm_file(dir / "base" / (stem + "_base.hsm"));
+    const auto finetune = hs::read_hsm_file(dir / "base" / (stem + "_finetune.hsm"));
+    const auto shipped = hs::read_hsm_file(dir / (stem + ".hsm"));
+    const auto blend = hs::blend_models(base, "base", finetune, "finetune", 0.7);
+    REQUIRE(shipped.weights.tensors.size() == blend.weights.tensors.size());
+    for (const auto& [tensor, t] : blend.weights.tensors) {
+      CAPTURE(tensor);
+      CHECK(shipped.weights.at(tensor).data == t.data);
+    }
+    CHECK(nlohmann::json::parse(shipped.config.meta_json)["blend"]["alpha"] == 0.7);
+    // Both steps are loadable models themselves (checksum and reference verified).
+    CHECK(hs::load_hsm(dir / "base" / (stem + "_base.hsm")));
+    CHECK(hs::load_hsm(dir / "base" / (stem + "_finetune.hsm")));
   }
-  CHECK(nlohmann::json::parse(shipped.config.meta_json)["blend"]["alpha"] == 0.7);
-  // Both steps are loadable models themselves (checksum and reference verified).
-  CHECK(hs::load_hsm(dir / "base" / "handsteady_xr26_causal_base.hsm"));
-  CHECK(hs::load_hsm(dir / "base" / "handsteady_xr26_causal_finetune.hsm"));
 }
