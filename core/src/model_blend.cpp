@@ -4,8 +4,6 @@
 
 #include <nlohmann/json.hpp>
 
-#include <cmath>
-
 namespace hs {
 
 HsmContents blend_models(const HsmContents& from, const std::string& from_source, const HsmContents& to,
