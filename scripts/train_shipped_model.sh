@@ -8,29 +8,32 @@
 #   1. the base model (models/configs/stgae_causal_xr26.json);
 #   2. its fine-tune on all recorded training data, BatchNorm statistics kept
 #      (models/configs/stgae_finetune_fixed_norm_xr26.json);
+#  dgn (models/handsteady_xr26_dgn.hsm, about 20 min):
+#   1. the base model (models/configs/dgn_causal_xr26.json);
+#   2. as for causal (models/configs/dgn_finetune_distill_motion_xr26.json);
 #  3. the blend 0.3 x base + 0.7 x fine-tune (`handsteady blend`, docs/TRAINING.md).
-# Step 2 starts from (and, for causal, is taught by) this run's base. Builds the CLI with
+# Step 2 starts from (and, for causal and dgn, is taught by) this run's base. Builds the CLI with
 # training in build/release first.
-# Usage: scripts/train_shipped_model.sh causal|stgae [OUT_DIR]   (default out/shipped_NAME;
+# Usage: scripts/train_shipped_model.sh causal|stgae|dgn [OUT_DIR]   (default out/shipped_NAME;
 #        the model is OUT_DIR/handsteady_xr26_NAME.hsm, beside base.hsm, finetune.hsm and their logs)
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 cd "$root"
 name=${1:-}
 case "$name" in
-  causal|stgae) ;;
-  *) echo "usage: $0 causal|stgae [OUT_DIR]" >&2; exit 2 ;;
+  causal|stgae|dgn) ;;
+  *) echo "usage: $0 causal|stgae|dgn [OUT_DIR]" >&2; exit 2 ;;
 esac
 out=${2:-out/shipped_$name}
 mkdir -p "$out"
 out=$(cd "$out" && pwd)
-if [ "$name" = causal ]; then
-  base_cfg=shipped_causal_xr26.json; ft_cfg=finetune_distill_motion_xr26.json
-  ft_train="\"init\": \"$out/base.hsm\", \"teacher\": \"$out/base.hsm\""
-else
-  base_cfg=stgae_causal_xr26.json; ft_cfg=stgae_finetune_fixed_norm_xr26.json
-  ft_train="\"init\": \"$out/base.hsm\""
-fi
+ft_train="\"init\": \"$out/base.hsm\", \"teacher\": \"$out/base.hsm\""
+case "$name" in
+  causal) base_cfg=shipped_causal_xr26.json; ft_cfg=finetune_distill_motion_xr26.json ;;
+  dgn) base_cfg=dgn_causal_xr26.json; ft_cfg=dgn_finetune_distill_motion_xr26.json ;;
+  stgae) base_cfg=stgae_causal_xr26.json; ft_cfg=stgae_finetune_fixed_norm_xr26.json
+         ft_train="\"init\": \"$out/base.hsm\"" ;;
+esac
 scripts/deps.sh all
 cmake -S . -B build/release -DCMAKE_BUILD_TYPE=Release -DHS_BUILD_TRAINING=ON >/dev/null
 cmake --build build/release -j"$(nproc)" --target handsteady

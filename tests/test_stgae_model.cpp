@@ -437,9 +437,9 @@ TEST_CASE("handsteady blend writes a model that loads and verifies, and refuses 
   CHECK(!std::filesystem::exists(dir / "x.hsm"));
 }
 
-TEST_CASE("the shipped causal and STGAE models are 0.3 x their base + 0.7 x their fine-tune (models/MODEL.md, models/base)") {
+TEST_CASE("the shipped causal, STGAE and DGN models are 0.3 x their base + 0.7 x their fine-tune (models/MODEL.md, models/base)") {
   const auto dir = std::filesystem::path(HS_FIXTURES) / ".." / ".." / "models";
-  for (const std::string name : {"causal", "stgae"}) {
+  for (const std::string name : {"causal", "stgae", "dgn"}) {
     CAPTURE(name);
     const auto stem = "handsteady_xr26_" + name;
     const auto base = hs::read_hsm_file(dir / "base" / (stem + "_base.hsm"));
