@@ -8,7 +8,6 @@
 
 #include <fmt/format.h>
 
-#include <filesystem>
 #include <memory>
 #include <string>
 
@@ -33,10 +32,7 @@ void setup_blend(CLI::App& app) {
     const auto from = read_hsm_file(o->from);
     const auto to = read_hsm_file(o->to);
     const auto out = blend_models(from, o->from, to, o->to, o->alpha);
-    const auto tmp = o->out + ".tmp";
-    save_hsm(tmp, out.config, out.weights, out.reference);
-    (void)load_hsm(tmp, true);  // the file must load and verify before it takes the name
-    std::filesystem::rename(tmp, o->out);
+    save_hsm_verified(o->out, out.config, out.weights, out.reference);
     fmt::print("blend: {:g} x {} + {:g} x {} -> {}\n", 1.0 - o->alpha, o->from, o->alpha, o->to, o->out);
   });
 }

@@ -10,10 +10,7 @@ HsmContents blend_models(const HsmContents& from, const std::string& from_source
                          const std::string& to_source, double alpha) {
   if (!(alpha >= 0.0 && alpha <= 1.0))
     throw InputError(SourceLocation{"", 0, "alpha"}, "the blend weight must be in [0, 1], got " + std::to_string(alpha));
-  StgaeConfig a = from.config, b = to.config;
-  a.meta_json.clear();
-  b.meta_json.clear();
-  if (to_json(a) != to_json(b))
+  if (!same_network(from.config, to.config))
     throw InputError(SourceLocation{to_source, 0, "config"},
                      "the network configuration differs from " + from_source + "'s: only two models of one network blend");
   check_stgae_weights(from.config, from.weights, from_source);

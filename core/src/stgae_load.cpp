@@ -88,4 +88,13 @@ std::shared_ptr<const StgaeModel> load_hsm(const std::filesystem::path& path, bo
   return assemble(read_hsm_file(path), verify, path.string());
 }
 
+void save_hsm_verified(const std::filesystem::path& path, const StgaeConfig& config, const StgaeWeights& weights,
+                       const StgaeReference& reference) {
+  auto tmp = path;
+  tmp += ".tmp";
+  save_hsm(tmp, config, weights, reference);
+  (void)load_hsm(tmp, true);
+  std::filesystem::rename(tmp, path);
+}
+
 }  // namespace hs

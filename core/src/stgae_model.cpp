@@ -155,6 +155,13 @@ StgaeConfig parse_stgae_config(std::string_view text, const std::string& source)
   return c;
 }
 
+bool same_network(const StgaeConfig& a, const StgaeConfig& b) {
+  StgaeConfig x = a, y = b;
+  x.meta_json.clear();
+  y.meta_json.clear();
+  return to_json(x) == to_json(y);
+}
+
 std::string to_json(const StgaeConfig& c) {
   json j;
   const bool dgn = c.family == StgaeFamily::Dgn;

@@ -450,18 +450,14 @@ void save_model(StgaeNetImpl& net, const TrainConfig& c, const std::filesystem::
       for (int k = 0; k < 3; ++k) input.push_back(static_cast<float>(ref_window.input[t](j, k)));
   // The reference output comes from the Eigen engine, so the loader's check is exact.
   const StgaeReference ref = make_stgae_reference(mc, w, std::move(input));
-  write_atomically(out, [&](const std::filesystem::path& p) { save_hsm(p, mc, w, ref); });
-  (void)load_hsm(out, true);  // the file we ship must load and verify
+  save_hsm_verified(out, mc, w, ref);  // the file we ship must load and verify
 }
 
 // The weights of a model file (path, named by the config key `key`) into net; its network
 // configuration must equal `model`.
 void import_same_network(StgaeNetImpl& net, const StgaeConfig& model, const std::string& path, const std::string& key) {
   const auto m = load_hsm(path, true);
-  StgaeConfig a = m->config, b = model;
-  a.meta_json.clear();
-  b.meta_json.clear();
-  if (to_json(a) != to_json(b))
+  if (!same_network(m->config, model))
     throw InputError(SourceLocation{path, 0, "config"},
                      key + ": the model's network configuration differs from the config's \"model\"");
   import_weights(net, m->weights);

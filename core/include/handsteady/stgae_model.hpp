@@ -147,6 +147,9 @@ struct StgaeConfig {
 // wrong types and invalid values throw InputError naming source and key.
 StgaeConfig parse_stgae_config(std::string_view json, const std::string& source = "");
 std::string to_json(const StgaeConfig& config);
+// True when the two configurations describe one network (equal but for their meta): the
+// weights of one fit the other (fine-tuning from it, teaching it, blending with it).
+bool same_network(const StgaeConfig& a, const StgaeConfig& b);
 // Throws InputError (field = the key) when the configuration is inconsistent.
 void validate_stgae_config(const StgaeConfig& config, const std::string& source = "");
 
@@ -213,5 +216,9 @@ std::vector<float> synthetic_hand_input(const StgaeConfig& config, int frames, s
 std::shared_ptr<const StgaeModel> parse_hsm(std::span<const std::uint8_t> bytes,
                                             const std::string& source, bool verify = true);
 std::shared_ptr<const StgaeModel> load_hsm(const std::filesystem::path& path, bool verify = true);
+// Writes the model to `path` + ".tmp", loads and verifies that file, then renames it to
+// `path`: a model file that is there loads, and an interrupted run leaves no torn one.
+void save_hsm_verified(const std::filesystem::path& path, const StgaeConfig& config, const StgaeWeights& weights,
+                       const StgaeReference& reference);
 
 }  // namespace hs
