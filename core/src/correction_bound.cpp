@@ -66,6 +66,8 @@ void CorrectionBound::reset() noexcept {
   std::fill(spread_.begin(), spread_.end(), 0.0);
   std::fill(last_.begin(), last_.end(), Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN()));
   std::fill(bias_count_.begin(), bias_count_.end(), 0);
+  corr2_.fill(0.0);
+  corr_count_.fill(0);
 }
 
 const float* CorrectionBound::x_back(long back) const noexcept {
@@ -109,9 +111,17 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std
     // The denoised frame: less the network's mean offset from its input (noise averages out
     // of a correction, a bias does not; each step at most the noise radius, so an outlier's
     // one large correction does not become an offset; applied only where it stands out of
-    // its own standard error), pulled into the ball around x.
+    // its own standard error); on a row that is no jump, the correction shrunk to the share
+    // the noise explains (a jump's correction is the outlier taken back, and stays out of
+    // the mean); pulled into the ball around x.
     mean_step(bias_[ju], spread_[ju], last_[ju], bias_count_[ju], d - xn, noise_r);
-    const Eigen::Vector3d den = clamp_into(d - significant(bias_[ju], spread_[ju], bias_count_[ju]), xn, r);
+    Eigen::Vector3d c = d - significant(bias_[ju], spread_[ju], bias_count_[ju]) - xn;
+    if (!(r > noise_r)) {
+      const double n2 = measured ? noise2[ju] : s * s / 6.0;  // E|n|^2
+      corr2_[ju] += running_weight(corr_count_[ju], kCorrectionBiasFrames) * (c.squaredNorm() - corr2_[ju]);
+      if (corr2_[ju] > kCorrectionShareFactor * n2) c *= kCorrectionShareFactor * n2 / corr2_[ju];
+    }
+    const Eigen::Vector3d den = clamp_into(Eigen::Vector3d(xn + c), xn, r);
     store(den, dj);
     // Predicted frame f: the network's displacement less its mean excess over what the
     // input did in f frames, then within reach of constant velocity from the denoised

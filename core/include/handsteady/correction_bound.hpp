@@ -3,7 +3,8 @@
 // only as far as the input's own recent roughness says noise could have moved it, and its
 // persistent offsets (a learnt bias on an unfamiliar hand: noise averages out of a
 // correction, a bias does not) are taken out, of the denoised frame and of each predicted
-// displacement. A clean still hand is answered exactly, from the first frame on; a noisy
+// displacement; what is left of a correction is shrunk to the share the input's noise
+// explains. A clean still hand is answered exactly, from the first frame on; a noisy
 // hand leaves the network free. Per stream (frames one model period apart), no allocation
 // after construction, noexcept. docs/STGAE.md "Trust region".
 #include "handsteady/skeleton.hpp"
@@ -30,6 +31,14 @@ inline constexpr double kCorrectionNoiseFactor = 3.0;
 // 1 takes over half of raw's and 1.5 keeps under by 2.6 %); 2 keeps it by 4 % for 1.7 %
 // of the tuning split's error (docs/STGAE.md "Trust region").
 inline constexpr double kMeasuredNoiseFactor = 2.0;
+// On rows that are no jump, the correction (after the offset) is scaled by
+// min(1, kCorrectionShareFactor * E|n|^2 / E|c|^2), E|c|^2 its mean square over about
+// kCorrectionBiasFrames frames: a correction much larger than the input's noise is mostly
+// the network's own error (fast, nearly clean free-air motion it reshapes), and
+// E|n|^2 / E|c|^2 is the least-squares share of it to keep when that error is independent
+// of the noise. Twice that, since tremor is measured low (the demo's Parkinsonian ink: 1
+// takes its jerk from 0.48 to 0.53 of raw's, 2 to 0.49); docs/STGAE.md "Trust region".
+inline constexpr double kCorrectionShareFactor = 2.0;
 inline constexpr double kCorrectionRoughnessFrames = 15.0;
 inline constexpr double kCorrectionBiasFrames = 30.0;
 
@@ -41,7 +50,8 @@ class CorrectionBound {
   void reset() noexcept;
   // Input frame x (3 * kJointCount, joint-major xyz, NaN = missing) and the network's path
   // for it (frames() frames of 3 * kJointCount), rewritten in place:
-  // - denoised: less the network's mean offset, then pulled to within the radius of x;
+  // - denoised: less the network's mean offset, shrunk to the share of it the input's noise
+  //   explains (rows that are no jump), then pulled to within the radius of x;
   // - predicted frame f: the denoised one plus the network's predicted displacement less
   //   its mean excess over the displacement the input then made (measured f frames later),
   //   then held within reach of constant velocity (x's last step) from the denoised one.
@@ -69,6 +79,8 @@ class CorrectionBound {
   std::vector<double> spread_;         // their samples' variance (the standard error's base)
   std::vector<Eigen::Vector3d> last_;  // their previous samples
   std::vector<int> bias_count_;
+  std::array<double, kJointCount> corr2_{};  // mean squared correction on rows that were no jump, m^2
+  std::array<int, kJointCount> corr_count_{};
 
   const float* x_back(long back) const noexcept;  // the input `back` frames ago (0 = now)
 };
