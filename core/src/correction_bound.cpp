@@ -111,13 +111,14 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std
     // The denoised frame: less the network's mean offset from its input (noise averages out
     // of a correction, a bias does not; each step at most the noise radius, so an outlier's
     // one large correction does not become an offset; applied only where it stands out of
-    // its own standard error); on a row that is no jump, the correction shrunk to the share
-    // the noise explains (a jump's correction is the outlier taken back, and stays out of
-    // the mean); pulled into the ball around x.
+    // its own standard error); with the noise measured at the input rate, on a row that is
+    // no jump, the correction shrunk to the share the noise explains (a jump's correction
+    // is the outlier taken back, and stays out of the mean; the stream's own measure counts
+    // motion as noise and cannot tell); pulled into the ball around x.
     mean_step(bias_[ju], spread_[ju], last_[ju], bias_count_[ju], d - xn, noise_r);
     Eigen::Vector3d c = d - significant(bias_[ju], spread_[ju], bias_count_[ju]) - xn;
-    if (!(r > noise_r)) {
-      const double n2 = measured ? noise2[ju] : s * s / 6.0;  // E|n|^2
+    if (measured && !(r > noise_r)) {
+      const double n2 = noise2[ju];  // E|n|^2
       corr2_[ju] += running_weight(corr_count_[ju], kCorrectionBiasFrames) * (c.squaredNorm() - corr2_[ju]);
       if (corr2_[ju] > kCorrectionShareFactor * n2) c *= kCorrectionShareFactor * n2 / corr2_[ju];
     }

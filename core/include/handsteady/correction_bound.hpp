@@ -3,9 +3,9 @@
 // only as far as the input's own recent roughness says noise could have moved it, and its
 // persistent offsets (a learnt bias on an unfamiliar hand: noise averages out of a
 // correction, a bias does not) are taken out, of the denoised frame and of each predicted
-// displacement; what is left of a correction is shrunk to the share the input's noise
-// explains. A clean still hand is answered exactly, from the first frame on; a noisy
-// hand leaves the network free. Per stream (frames one model period apart), no allocation
+// displacement; with the noise measured at the input rate, what is left of a correction is
+// shrunk to the share that noise explains. A clean still hand is answered exactly, from
+// the first frame on; a noisy hand leaves the network free. Per stream (frames one model period apart), no allocation
 // after construction, noexcept. docs/STGAE.md "Trust region".
 #include "handsteady/skeleton.hpp"
 
@@ -31,7 +31,8 @@ inline constexpr double kCorrectionNoiseFactor = 3.0;
 // 1 takes over half of raw's and 1.5 keeps under by 2.6 %); 2 keeps it by 4 % for 1.7 %
 // of the tuning split's error (docs/STGAE.md "Trust region").
 inline constexpr double kMeasuredNoiseFactor = 2.0;
-// On rows that are no jump, the correction (after the offset) is scaled by
+// With the noise measured at the input rate, on rows that are no jump, the correction
+// (after the offset) is scaled by
 // min(1, kCorrectionShareFactor * E|n|^2 / E|c|^2), E|c|^2 its mean square over about
 // kCorrectionBiasFrames frames: a correction much larger than the input's noise is mostly
 // the network's own error (fast, nearly clean free-air motion it reshapes), and
@@ -50,8 +51,7 @@ class CorrectionBound {
   void reset() noexcept;
   // Input frame x (3 * kJointCount, joint-major xyz, NaN = missing) and the network's path
   // for it (frames() frames of 3 * kJointCount), rewritten in place:
-  // - denoised: less the network's mean offset, shrunk to the share of it the input's noise
-  //   explains (rows that are no jump), then pulled to within the radius of x;
+  // - denoised: less the network's mean offset, then pulled to within the radius of x;
   // - predicted frame f: the denoised one plus the network's predicted displacement less
   //   its mean excess over the displacement the input then made (measured f frames later),
   //   then held within reach of constant velocity (x's last step) from the denoised one.
@@ -59,7 +59,8 @@ class CorrectionBound {
   void apply(std::span<const float> x, std::span<float> path) noexcept { apply(x, path, {}, {}); }
   // The same with the input's noise measured at the input rate (InputNoise): E|n|^2 per
   // joint and this row's jump set the denoised frame's radius instead of this stream's
-  // second differences (empty spans: those).
+  // second differences (empty spans: those), and on a row that is no jump the correction
+  // is first shrunk to the share of it that noise explains.
   void apply(std::span<const float> x, std::span<float> path, std::span<const double> noise2,
              std::span<const double> jump) noexcept;
   int frames() const noexcept { return frames_; }
