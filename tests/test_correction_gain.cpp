@@ -170,11 +170,11 @@ TEST_CASE("correction gain through the adapter: the shipped model on 8-12 Hz tre
   INFO("raw " << raw << " mm, with the gain " << with_gain << " mm, without " << without << " mm, the network alone "
               << alone << " mm");
   CHECK(alone > 1.1 * raw);  // the case this guards: the network makes this noise worse
-  CHECK(without > 1.1 * raw);
-  // The gain takes back more than half of what the network adds over raw, and more than the
-  // trust region alone (on this synthetic hand, unlike any training hand, not all of it:
-  // 1.27 against 1.38 with the trust region only, 1.81 the network alone, raw 0.98; before
-  // the trust region measured the noise at the input rate it was 1.25 against 1.73).
+  // The trust region alone now takes back most of what the network adds over raw (since the
+  // older stream's prediction no longer enters where the streams disagree beyond the noise:
+  // 1.03 mm, the network alone 1.70, raw 0.98; before, 1.38), and the gain, which took back
+  // more than half of it before (1.27), no longer adds to that: it must not undo it.
+  CHECK(without - raw < 0.2 * (alone - raw));
   CHECK(with_gain - raw < 0.5 * (alone - raw));
-  CHECK(with_gain < without);
+  CHECK(with_gain < 1.01 * without);
 }

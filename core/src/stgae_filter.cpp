@@ -155,19 +155,17 @@ class StgaeFilter final : public PoseFilter {
     // streams' residual errors are partly independent, so answering from one stream after
     // the other alternates between them at the input rate; averaging two damps that at the
     // cost of 1/K period of age in a third of the answer.
-    double wsum = 0.0;
     for (int back = 0; back < std::min(2, phases_); ++back) {
       const int k = (latest_ - back + phases_) % phases_;
       const PhaseOutput& p = out_[static_cast<size_t>(k)];
       if (back > 0 && !p.have) continue;
-      const double w = back == 0 ? 1.0 : kOlderPhaseWeight;
       for (int j = 0; j < n_; ++j) {
         if (last_t_ - seen_t_[static_cast<size_t>(j)] > kModelResetGapS) continue;  // expired / never seen
-        for (int c = 0; c < 3; ++c) out(j, c) = (back == 0 ? 0.0 : out(j, c)) + w * path_at(p, tq, 3 * j + c);
+        const double w = older_w_[static_cast<size_t>(j)];
+        for (int c = 0; c < 3; ++c)
+          out(j, c) = back == 0 ? path_at(p, tq, 3 * j + c) : (out(j, c) + w * path_at(p, tq, 3 * j + c)) / (1.0 + w);
       }
-      wsum += w;
     }
-    if (wsum > 1.0) out /= wsum;
   }
 
   // The value of coordinate i on a stream's path at time tq.
@@ -197,6 +195,17 @@ class StgaeFilter final : public PoseFilter {
   static constexpr int kRateWindow = 16;
   static constexpr int kRateStreak = 8;
   static constexpr double kOlderPhaseWeight = 0.5;
+  // The older stream's share is its prediction 1/K period ahead, which the trust region
+  // holds only within reach of constant velocity: per joint, its weight is
+  // kOlderPhaseWeight * min(1, kOlderAgreementFactor * E|n|^2 / E|d|^2), d the newest
+  // stream's denoised frame less the older stream's path at its time (a running mean over
+  // about kOlderAgreementFrames frames) and E|n|^2 the input's noise (InputNoise): streams
+  // that disagree by far more than the noise explains disagree by the older one's
+  // prediction error (fast, nearly clean motion), which averaging would put in a third of
+  // the answer. 16: the smallest factor that keeps the demo's ink jerk under half of raw's
+  // (docs/STGAE.md "Where the rest of the low-noise loss is").
+  static constexpr double kOlderAgreementFactor = 16.0;
+  static constexpr double kOlderAgreementFrames = 30.0;
   // Sample intervals of 0.6-1.34 sub-periods lock. The top is the fastest speed factor the
   // shipped models were trained on (1.33; locking 20 Hz, 1.5, made a synthetic hand's 50 ms
   // answers twice as far off). Below 1 a frame's motion is that of a slower hand, which
@@ -246,6 +255,9 @@ class StgaeFilter final : public PoseFilter {
     smoother_.reset();
     gain_.restart();
     for (PhaseOutput& o : out_) o.have = o.have_prev = false;
+    older_w_.fill(kOlderPhaseWeight);
+    disagree2_.fill(0.0);
+    disagree_count_.fill(0);
     have_grid_ = false;
     locked_ = false;
     latest_ = -1;
@@ -346,6 +358,8 @@ class StgaeFilter final : public PoseFilter {
       else bound.apply(frame, o.path);
     }
     if (smoothed_) smoother_.apply(t, o.path);
+    if (bounded_ && phases_ >= 2 && latest_ >= 0 && latest_ != phase && out_[static_cast<size_t>(latest_)].have)
+      weigh_older(o, out_[static_cast<size_t>(latest_)], t);
     o.t = t;
     o.have = true;
     // A stream started later (once the rate is known) answers from its first frame, as
@@ -353,6 +367,24 @@ class StgaeFilter final : public PoseFilter {
     // answered were extrapolated from an older stream for the first T periods of every
     // (re)start, which cost more than its short history (docs/STGAE.md).
     latest_ = phase;
+  }
+
+  // The older stream's weight per joint from how far `newest` (its denoised frame at t)
+  // and `older` (its path at t) disagree, against the input's noise.
+  void weigh_older(const PhaseOutput& newest, const PhaseOutput& older, double t) noexcept {
+    const auto n2 = noise_.noise2();
+    for (int j = 0; j < n_ && static_cast<size_t>(j) < n2.size(); ++j) {
+      const auto ju = static_cast<size_t>(j);
+      double d2 = 0.0;
+      for (int c = 0; c < 3; ++c) {
+        const double d = static_cast<double>(newest.path[static_cast<size_t>(3 * j + c)]) - path_at(older, t, 3 * j + c);
+        d2 += d * d;
+      }
+      if (!std::isfinite(d2)) continue;  // a joint missing in either: keep the weight it had
+      disagree2_[ju] += running_weight(disagree_count_[ju], kOlderAgreementFrames) * (d2 - disagree2_[ju]);
+      const double explained = kOlderAgreementFactor * n2[ju];
+      older_w_[ju] = kOlderPhaseWeight * (disagree2_[ju] > explained ? explained / disagree2_[ju] : 1.0);
+    }
   }
 
   std::shared_ptr<const StgaeModel> model_;
@@ -366,6 +398,9 @@ class StgaeFilter final : public PoseFilter {
   PredictionSmoother smoother_;  // one for all streams (smoothed_): their frames in time order
   CorrectionGain gain_;          // how much of the answer's correction to keep (gained_)
   InputNoise noise_;             // the input's noise at the input rate, for the trust region
+  std::array<double, kJointCount> older_w_{};       // the older stream's weight per joint
+  std::array<double, kJointCount> disagree2_{};     // mean squared disagreement of the two newest streams, m^2
+  std::array<int, kJointCount> disagree_count_{};
   Pose ans_ = untracked_pose();  // the answer at the last row, before the gain
   int n_ = 0, dt_frames_ = 0, phases_ = 1, latest_ = -1, valid_rows_ = 0, mismatch_rows_ = 0;
   IntervalRing<kRateWindow> intervals_;  // the last sample intervals (s)
