@@ -118,9 +118,8 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std
     mean_step(bias_[ju], spread_[ju], last_[ju], bias_count_[ju], d - xn, noise_r);
     Eigen::Vector3d c = d - significant(bias_[ju], spread_[ju], bias_count_[ju]) - xn;
     if (measured && !(r > noise_r)) {
-      const double n2 = noise2[ju];  // E|n|^2
       corr2_[ju] += running_weight(corr_count_[ju], kCorrectionBiasFrames) * (c.squaredNorm() - corr2_[ju]);
-      if (corr2_[ju] > kCorrectionShareFactor * n2) c *= kCorrectionShareFactor * n2 / corr2_[ju];
+      c *= explained_share(corr2_[ju], kCorrectionShareFactor * noise2[ju]);  // noise2: E|n|^2
     }
     const Eigen::Vector3d den = clamp_into(Eigen::Vector3d(xn + c), xn, r);
     store(den, dj);

@@ -382,8 +382,7 @@ class StgaeFilter final : public PoseFilter {
       }
       if (!std::isfinite(d2)) continue;  // a joint missing in either: keep the weight it had
       disagree2_[ju] += running_weight(disagree_count_[ju], kOlderAgreementFrames) * (d2 - disagree2_[ju]);
-      const double explained = kOlderAgreementFactor * n2[ju];
-      older_w_[ju] = kOlderPhaseWeight * (disagree2_[ju] > explained ? explained / disagree2_[ju] : 1.0);
+      older_w_[ju] = kOlderPhaseWeight * explained_share(disagree2_[ju], kOlderAgreementFactor * n2[ju]);
     }
   }
 

@@ -5,8 +5,8 @@
 // correction, a bias does not) are taken out, of the denoised frame and of each predicted
 // displacement; with the noise measured at the input rate, what is left of a correction is
 // shrunk to the share that noise explains. A clean still hand is answered exactly, from
-// the first frame on; a noisy hand leaves the network free. Per stream (frames one model period apart), no allocation
-// after construction, noexcept. docs/STGAE.md "Trust region".
+// the first frame on; a noisy hand leaves the network free. Per stream (frames one model
+// period apart), no allocation after construction, noexcept. docs/STGAE.md "Trust region".
 #include "handsteady/skeleton.hpp"
 
 #include <Eigen/Core>
@@ -40,6 +40,12 @@ inline constexpr double kMeasuredNoiseFactor = 2.0;
 // of the noise. Twice that, since tremor is measured low (the demo's Parkinsonian ink: 1
 // takes its jerk from 0.48 to 0.53 of raw's, 2 to 0.49); docs/STGAE.md "Trust region".
 inline constexpr double kCorrectionShareFactor = 2.0;
+// min(1, explained / mean2): the share of something of mean square `mean2` that a noise of
+// mean square `explained` accounts for (the correction here, the older stream's weight in
+// the adapter).
+inline double explained_share(double mean2, double explained) noexcept {
+  return mean2 > explained ? explained / mean2 : 1.0;
+}
 inline constexpr double kCorrectionRoughnessFrames = 15.0;
 inline constexpr double kCorrectionBiasFrames = 30.0;
 
