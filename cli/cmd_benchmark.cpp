@@ -80,6 +80,7 @@ void run_benchmark(const BenchmarkOptions& o, const std::string& command) {
 #else
   report.notes.push_back("synth-handwriting skipped: built without libhersheyfont-dev");
 #endif
+  bench::use_rate(sets, o.run.rate_hz);
   std::vector<std::pair<std::string, fs::path>> model_files;
   for (const auto& spec : o.models) {
     const auto eq = spec.find('=');
@@ -185,6 +186,10 @@ void setup_benchmark(CLI::App& app) {
                 "\"Prediction smoothing\")");
   sub->add_flag("--tuning-split", o->run.tuning_split,
                 "Score the tuning sets instead of the test sets (for choosing a method's constants; docs/BENCHMARK.md)");
+  sub->add_option("--rate", o->run.rate_hz,
+                  "Score every set with truth at this input rate (Hz) instead of its own (30 for FPHA, 90 for the "
+                  "others); recordings without truth stay as recorded")
+      ->check(CLI::Range(5.0, 500.0));
   sub->add_flag("--quick", o->run.quick, "The CI subset: ~20 s of each set, one strength per family");
   sub->add_option("--threads", o->run.threads, "Worker threads")->capture_default_str()->check(CLI::Range(1, 64));
   sub->add_option("--seed", o->run.seed, "Seed of every corruption and timing jitter")->capture_default_str();

@@ -298,6 +298,29 @@ TEST_CASE("the grid on synthetic motion: noise is what it says, filters are scor
   CHECK(mdt.find("Scored on the tuning split") != std::string::npos);
   CHECK(mdt.find("noise cells of the tuning sets") != std::string::npos);
   CHECK(md.find("Scored on the tuning split") == std::string::npos);
+  // At another input rate (--rate): the sets with truth resampled to it, the recording not.
+  auto sets30 = sets;
+  bench::use_rate(sets30, 30.0);
+  bench::Report r30;
+  r30.tuned = r.tuned;
+  bench::run_grid(sets30, bench::classical_methods(r30.tuned), o, r30);
+  size_t noise30 = 0;
+  for (const auto& x : r30.results) {
+    if (x.cell.block == "noise") {
+      CHECK(x.cell.rate_hz == 30.0);
+      ++noise30;
+    }
+    if (x.cell.block == "recorded") CHECK(x.cell.rate_hz == 0.0);
+  }
+  CHECK(noise30 > 0);
+  const auto* raw30 = [&]() -> const bench::Result* {
+    for (const auto& x : r30.results)
+      if (x.cell.block == "noise" && x.cell.family == "white" && x.method == "raw" && x.cell.dataset == raw->cell.dataset) return &x;
+    return nullptr;
+  }();
+  REQUIRE(raw30);
+  CHECK(raw->cell.rate_hz != 30.0);
+  CHECK(raw30->at[0].frames * 2 < raw->at[0].frames);  // a third of the rows of the 90 Hz grid
 }
 
 TEST_CASE("jitter at equal lag: the lower envelope of a sweep, interpolated, held at its ends") {

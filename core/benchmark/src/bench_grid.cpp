@@ -170,6 +170,12 @@ std::vector<Dataset> load_datasets(const fs::path& data_dir, bool quick, std::ve
   return out;
 }
 
+void use_rate(std::vector<Dataset>& datasets, double rate_hz) {
+  if (!(rate_hz > 0.0)) return;
+  for (Dataset& d : datasets)
+    if (d.has_truth) d.rate_hz = rate_hz;
+}
+
 std::vector<NoiseCell> noise_grid(bool quick) {
   std::vector<NoiseCell> g;
   const auto mm = [](double v) { return fmt::format("{:g}mm", v); };

@@ -40,6 +40,9 @@ struct Dataset {
 // ManipNet cup1 and Leap guinevere subject 03. A set whose files are missing is skipped
 // with a note. quick: the first ~20 s of each set.
 std::vector<Dataset> load_datasets(const std::filesystem::path& data_dir, bool quick, std::vector<std::string>& notes);
+// Every set with truth scored at `rate_hz` instead of its own grid rate (Options::rate_hz;
+// 0: unchanged). Recordings without truth stay as recorded.
+void use_rate(std::vector<Dataset>& datasets, double rate_hz);
 
 // One noise condition: corruption steps applied in order to the resampled truth.
 struct NoiseCell {
@@ -76,6 +79,10 @@ struct Options {
   // Score the tuning sets instead of the test sets: for choosing a method's own constants
   // without looking at the test sets (One Euro is then tuned on the sets it is scored on).
   bool tuning_split = false;
+  // > 0: every set with truth resampled to this grid rate instead of its own (Hz), One
+  // Euro's tuning included: to score or choose constants for another input rate (a model
+  // runs one stream per frame at its own rate, several at faster input).
+  double rate_hz = 0.0;
   // Where a run reports its stages and the scoring's progress, a line at a time (called
   // from worker threads, so it must be thread-safe); empty: silent. A full run takes tens
   // of minutes, and a user should see it move.
