@@ -51,7 +51,8 @@ CorrectionBound::CorrectionBound(int frames)
       bias_(static_cast<size_t>(frames_ * kJointCount)),
       spread_(static_cast<size_t>(frames_ * kJointCount)),
       last_(static_cast<size_t>(frames_ * kJointCount)),
-      bias_count_(static_cast<size_t>(frames_ * kJointCount)) {
+      bias_count_(static_cast<size_t>(frames_ * kJointCount)),
+      corr_(static_cast<size_t>(hist_) * kJointCount) {
   reset();
 }
 
@@ -68,10 +69,28 @@ void CorrectionBound::reset() noexcept {
   std::fill(bias_count_.begin(), bias_count_.end(), 0);
   corr2_.fill(0.0);
   corr_count_.fill(0);
+  std::fill(corr_.begin(), corr_.end(), Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN()));
+  corr_lag1_.fill(0.0);
+  corr_lag2_.fill(0.0);
 }
 
 const float* CorrectionBound::x_back(long back) const noexcept {
   return x_.data() + static_cast<size_t>((n_ - back) % hist_) * kFs;
+}
+
+const Eigen::Vector3d& CorrectionBound::corr_back(long back, size_t joint) const noexcept {
+  return corr_[static_cast<size_t>((n_ - back) % hist_) * kJointCount + joint];
+}
+
+double CorrectionBound::stream_share(size_t j, const Eigen::Vector3d& c) noexcept {
+  const double w = running_weight(corr_count_[j], kCorrectionBiasFrames);
+  corr2_[j] += w * (c.squaredNorm() - corr2_[j]);
+  // The frames before may be missing (the joint unseen, a jump): their products are skipped.
+  if (n_ >= 1 && corr_back(1, j).allFinite()) corr_lag1_[j] += w * (c.dot(corr_back(1, j)) - corr_lag1_[j]);
+  if (n_ >= 2 && corr_back(2, j).allFinite()) corr_lag2_[j] += w * (c.dot(corr_back(2, j)) - corr_lag2_[j]);
+  corr_[static_cast<size_t>(n_ % hist_) * kJointCount + j] = c;
+  const double noise2 = std::max(0.0, corr2_[j] - std::min(corr_lag1_[j], corr_lag2_[j]));
+  return explained_share(corr2_[j], kStreamShareFactor * noise2);
 }
 
 void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std::span<const double> noise2,
@@ -89,6 +108,7 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std
     const auto ju = static_cast<size_t>(j);
     const size_t o = 3 * ju;
     radius_[ju] = kInf;
+    corr_[slot * kJointCount + ju] = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
     if (!finite_xyz(x_now + o)) continue;
     const Eigen::Vector3d xn = load(x_now + o);
     const float* x1 = n_ >= 1 ? x_back(1) + o : nullptr;
@@ -113,13 +133,16 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std
     // one large correction does not become an offset; applied only where it stands out of
     // its own standard error); with the noise measured at the input rate, on a row that is
     // no jump, the correction shrunk to the share the noise explains (a jump's correction
-    // is the outlier taken back, and stays out of the mean; the stream's own measure counts
-    // motion as noise and cannot tell); pulled into the ball around x.
+    // is the outlier taken back, and stays out of the mean; one stream without a measured
+    // noise reads it from the correction's correlation over frames); pulled into the ball
+    // around x.
     mean_step(bias_[ju], spread_[ju], last_[ju], bias_count_[ju], d - xn, noise_r);
     Eigen::Vector3d c = d - significant(bias_[ju], spread_[ju], bias_count_[ju]) - xn;
     if (measured && !(r > noise_r)) {
       corr2_[ju] += running_weight(corr_count_[ju], kCorrectionBiasFrames) * (c.squaredNorm() - corr2_[ju]);
       c *= explained_share(corr2_[ju], kCorrectionShareFactor * noise2[ju]);  // noise2: E|n|^2
+    } else if (!measured && !(r > noise_r) && c.allFinite()) {
+      c *= stream_share(ju, c);
     }
     const Eigen::Vector3d den = clamp_into(Eigen::Vector3d(xn + c), xn, r);
     store(den, dj);
