@@ -174,6 +174,46 @@ TEST_CASE("one stream: corrections that change little from frame to frame are sh
   CHECK(e_tremor < 0.3 * e_traw);
 }
 
+TEST_CASE("with the noise measured too, a slow error of the network's own is shrunk below twice that noise's share") {
+  // 0.5 mm of white jitter, measured (E|n|^2 given, as InputNoise would), and a network
+  // that removes it and adds a slow drag of 2 mm (0.7 Hz): the measured noise alone allows
+  // twice its share, 2 E|n|^2 / E|c|^2 (about 0.22 here); the correction's correlation
+  // reads the noise at about its true size, and the smaller of the two is kept.
+  const hs::Pose hand = hs::test::synthetic_hand();
+  const auto clean = frame_of(hand);
+  std::mt19937_64 rng(17);
+  std::normal_distribution<double> noise(0.0, 0.0005);
+  std::uniform_real_distribution<double> phase(0.0, 6.283);
+  std::vector<double> drag_phase(kFs);
+  for (auto& v : drag_phase) v = phase(rng);
+  const std::vector<double> noise2(kJointCount, 3 * 0.0005 * 0.0005), jump(kJointCount, 0.0);
+  CorrectionBound b;
+  double e_raw = 0.0, e_ans = 0.0, e_twice = 0.0;
+  for (int n = 0; n < 600; ++n) {
+    const double t = n / 30.0;
+    const auto x = frame_of(jittered(hand, rng, noise));
+    auto p = clean;
+    for (size_t i = 0; i < kFs; ++i) p[i] += static_cast<float>(0.002 * std::sin(2 * M_PI * 0.7 * t + drag_phase[i]));
+    const auto asked = p;
+    b.apply(x, p, noise2, jump);
+    if (n < 90) continue;
+    // E|c|^2 = E|n|^2 + E|e|^2 = 0.75 + 6 mm^2: twice the measured noise's share is 1.5 / 6.75.
+    const double twice = 2.0 * 0.75 / 6.75;
+    for (size_t i = 0; i < kFs; i += 3) {
+      const Eigen::Vector3d tr(clean[i], clean[i + 1], clean[i + 2]), xi(x[i], x[i + 1], x[i + 2]);
+      const Eigen::Vector3d a(asked[i], asked[i + 1], asked[i + 2]), q(p[i], p[i + 1], p[i + 2]);
+      e_raw += (xi - tr).norm();
+      e_ans += (q - tr).norm();
+      e_twice += (xi + twice * (a - xi) - tr).norm();
+    }
+  }
+  const double k = 1e3 / 510 / kJointCount;
+  MESSAGE("mean joint error (mm): input " << e_raw * k << ", answered " << e_ans * k << ", at twice the measured share "
+          << e_twice * k);
+  CHECK(e_ans < 0.97 * e_twice);
+  CHECK(e_ans < 1.1 * e_raw);
+}
+
 TEST_CASE("constant offsets of the network, now and predicted, are taken out") {
   // The network answers 3 mm beside a noisy still hand and predicts it moving 2 mm a
   // period: the mean answers, now and ahead, are pulled back to the hand within a second or so.

@@ -82,15 +82,14 @@ const Eigen::Vector3d& CorrectionBound::corr_back(long back, size_t joint) const
   return corr_[static_cast<size_t>((n_ - back) % hist_) * kJointCount + joint];
 }
 
-double CorrectionBound::stream_share(size_t j, const Eigen::Vector3d& c) noexcept {
+double CorrectionBound::correlated_noise2(size_t j, const Eigen::Vector3d& c) noexcept {
   const double w = running_weight(corr_count_[j], kCorrectionBiasFrames);
   corr2_[j] += w * (c.squaredNorm() - corr2_[j]);
   // The frames before may be missing (the joint unseen, a jump): their products are skipped.
   if (n_ >= 1 && corr_back(1, j).allFinite()) corr_lag1_[j] += w * (c.dot(corr_back(1, j)) - corr_lag1_[j]);
   if (n_ >= 2 && corr_back(2, j).allFinite()) corr_lag2_[j] += w * (c.dot(corr_back(2, j)) - corr_lag2_[j]);
   corr_[static_cast<size_t>(n_ % hist_) * kJointCount + j] = c;
-  const double noise2 = std::max(0.0, corr2_[j] - std::min(corr_lag1_[j], corr_lag2_[j]));
-  return explained_share(corr2_[j], kStreamShareFactor * noise2);
+  return std::max(0.0, corr2_[j] - std::min(corr_lag1_[j], corr_lag2_[j]));
 }
 
 void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std::span<const double> noise2,
@@ -131,18 +130,16 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std
     // The denoised frame: less the network's mean offset from its input (noise averages out
     // of a correction, a bias does not; each step at most the noise radius, so an outlier's
     // one large correction does not become an offset; applied only where it stands out of
-    // its own standard error); with the noise measured at the input rate, on a row that is
-    // no jump, the correction shrunk to the share the noise explains (a jump's correction
-    // is the outlier taken back, and stays out of the mean; one stream without a measured
-    // noise reads it from the correction's correlation over frames); pulled into the ball
-    // around x.
+    // its own standard error); on a row that is no jump, the correction shrunk to the share
+    // the noise explains, E|n|^2 read from the correction's own correlation over frames and,
+    // where the noise is measured at the input rate, at most twice that (a jump's
+    // correction is the outlier taken back, and stays out of the mean); pulled into the
+    // ball around x.
     mean_step(bias_[ju], spread_[ju], last_[ju], bias_count_[ju], d - xn, noise_r);
     Eigen::Vector3d c = d - significant(bias_[ju], spread_[ju], bias_count_[ju]) - xn;
-    if (measured && !(r > noise_r)) {
-      corr2_[ju] += running_weight(corr_count_[ju], kCorrectionBiasFrames) * (c.squaredNorm() - corr2_[ju]);
-      c *= explained_share(corr2_[ju], kCorrectionShareFactor * noise2[ju]);  // noise2: E|n|^2
-    } else if (!measured && !(r > noise_r) && c.allFinite()) {
-      c *= stream_share(ju, c);
+    if (!(r > noise_r) && c.allFinite()) {
+      const double from_c = correlated_noise2(ju, c);
+      c *= explained_share(corr2_[ju], measured ? std::min(from_c, kCorrectionShareFactor * noise2[ju]) : from_c);
     }
     const Eigen::Vector3d den = clamp_into(Eigen::Vector3d(xn + c), xn, r);
     store(den, dj);

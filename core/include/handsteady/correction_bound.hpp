@@ -4,9 +4,9 @@
 // persistent offsets (a learnt bias on an unfamiliar hand: noise averages out of a
 // correction, a bias does not) are taken out, of the denoised frame and of each predicted
 // displacement; what is left of a correction is shrunk to the share that noise explains
-// (the noise measured at the input rate, or at the model's from the correction's own
-// correlation over frames). A clean still hand is answered exactly, from
-// the first frame on; a noisy hand leaves the network free. Per stream (frames one model
+// (read from the correction's own correlation over frames, and bounded by the noise
+// measured at the input rate where there is one). A clean still hand is answered exactly,
+// from the first frame on; a noisy hand leaves the network free. Per stream (frames one model
 // period apart), no allocation after construction, noexcept. docs/STGAE.md "Trust region".
 #include "handsteady/skeleton.hpp"
 
@@ -32,25 +32,23 @@ inline constexpr double kCorrectionNoiseFactor = 3.0;
 // 1 takes over half of raw's and 1.5 keeps under by 2.6 %); 2 keeps it by 4 % for 1.7 %
 // of the tuning split's error (docs/STGAE.md "Trust region").
 inline constexpr double kMeasuredNoiseFactor = 2.0;
-// With the noise measured at the input rate, on rows that are no jump, the correction
-// (after the offset) is scaled by
-// min(1, kCorrectionShareFactor * E|n|^2 / E|c|^2), E|c|^2 its mean square over about
-// kCorrectionBiasFrames frames: a correction much larger than the input's noise is mostly
-// the network's own error (fast, nearly clean free-air motion it reshapes), and
-// E|n|^2 / E|c|^2 is the least-squares share of it to keep when that error is independent
-// of the noise. Twice that, since tremor is measured low (the demo's Parkinsonian ink: 1
-// takes its jerk from 0.48 to 0.53 of raw's, 2 to 0.49); docs/STGAE.md "Trust region".
+// On rows that are no jump, the correction c (after the offset) is scaled by
+// min(1, E|n|^2 / E|c|^2), E|c|^2 its mean square over about kCorrectionBiasFrames frames:
+// a correction much larger than the input's noise is mostly the network's own error (fast,
+// nearly clean free-air motion it reshapes), and E|n|^2 / E|c|^2 is the least-squares share
+// of it to keep when that error is independent of the noise. E|n|^2 is read from the
+// correction itself, c = -n + e: the network's own error e is a drag that changes little
+// from one frame to the next, the noise it removes does (white jitter is uncorrelated over
+// frames, a 4-12 Hz tremor at 30 Hz anticorrelated at one or two frames), so E|n|^2 ~
+// E|c|^2 less the smaller of c's mean products with itself one and two frames back (what e
+// alone leaves). Where the noise is also measured at the input rate (InputNoise), E|n|^2 is
+// at most kCorrectionShareFactor times that: each overstates the noise in its own way (the
+// correlation counts the part of the network's error that does change between frames;
+// InputNoise, doubled, sees little of a smooth tremor, which the demo's Parkinsonian ink
+// needs removed: 1 takes its jerk from 0.48 to 0.53 of raw's, 2 to 0.49). The forms and
+// factors were chosen on the tuning split, at 30 Hz for one stream (docs/STGAE.md "Trust
+// region", "One stream: the correction's own correlation").
 inline constexpr double kCorrectionShareFactor = 2.0;
-// One stream at the model's rate has no finer rows to measure the noise on: the stream's
-// second differences count motion as noise. There E|n|^2 is read from the correction
-// itself, c = -n + e: the network's own error e is a drag that changes little from one
-// frame to the next, the noise it removes does (white jitter is uncorrelated over frames,
-// a 4-12 Hz tremor at 30 Hz anticorrelated at one or two frames), so E|n|^2 ~ E|c|^2 less
-// the smaller of c's mean products with itself one and two frames back (what e alone
-// leaves). The share kept is min(1, kStreamShareFactor * E|n|^2 / E|c|^2); 1, the plain
-// least-squares share, chosen on the tuning split at 30 Hz (docs/STGAE.md "One stream:
-// the correction's own correlation").
-inline constexpr double kStreamShareFactor = 1.0;
 // min(1, explained / mean2): the share of something of mean square `mean2` that a noise of
 // mean square `explained` accounts for (the correction here, the older stream's weight in
 // the adapter).
@@ -76,9 +74,9 @@ class CorrectionBound {
   void apply(std::span<const float> x, std::span<float> path) noexcept { apply(x, path, {}, {}); }
   // The same with the input's noise measured at the input rate (InputNoise): E|n|^2 per
   // joint and this row's jump set the denoised frame's radius instead of this stream's
-  // second differences (empty spans: those, and E|n|^2 for the shrink from the
-  // correction's correlation over frames); on a row that is no jump the correction is
-  // first shrunk to the share of it that noise explains.
+  // second differences (empty spans: those), and bound the noise the correction's
+  // correlation reads for the shrink (kCorrectionShareFactor). On a row that is no jump
+  // the correction is first shrunk to the share of it that noise explains.
   void apply(std::span<const float> x, std::span<float> path, std::span<const double> noise2,
              std::span<const double> jump) noexcept;
   int frames() const noexcept { return frames_; }
@@ -100,15 +98,16 @@ class CorrectionBound {
   std::vector<int> bias_count_;
   std::array<double, kJointCount> corr2_{};  // mean squared correction on rows that were no jump, m^2
   std::array<int, kJointCount> corr_count_{};
-  // One stream (no measured noise): the corrections of the ring's frames (NaN: none, or a
-  // jump), and the mean products of each with those one and two frames before it, m^2.
+  // The corrections of the ring's frames (NaN: none, or a jump), and the mean products of
+  // each with those one and two frames before it, m^2.
   std::vector<Eigen::Vector3d> corr_;
   std::array<double, kJointCount> corr_lag1_{}, corr_lag2_{};
 
   const float* x_back(long back) const noexcept;  // the input `back` frames ago (0 = now)
   const Eigen::Vector3d& corr_back(long back, size_t joint) const noexcept;  // a correction `back` frames ago
-  // The share of correction c (joint j, not a jump) to keep without a measured noise.
-  double stream_share(size_t j, const Eigen::Vector3d& c) noexcept;
+  // Takes correction c (joint j, a row that is no jump) into the running means and returns
+  // E|n|^2 as they read it.
+  double correlated_noise2(size_t j, const Eigen::Vector3d& c) noexcept;
 };
 
 }  // namespace hs
