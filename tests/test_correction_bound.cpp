@@ -40,6 +40,25 @@ double max_diff(const float* a, const float* b, size_t n) {
 
 using hs::test::jittered;
 
+// One phase in [0, 2 pi) per coordinate.
+std::vector<double> random_phases(std::mt19937_64& rng) {
+  std::uniform_real_distribution<double> phase(0.0, 2.0 * M_PI);
+  std::vector<double> v(kFs);
+  for (auto& x : v) x = phase(rng);
+  return v;
+}
+
+// A network's slow error of its own (a drag, as on motion it reshapes): 2 mm at 0.7 Hz on
+// every coordinate, each with its phase, at time t (s).
+void add_drag(std::vector<float>& path, double t, const std::vector<double>& phase) {
+  for (size_t i = 0; i < kFs; ++i) path[i] += static_cast<float>(0.002 * std::sin(2 * M_PI * 0.7 * t + phase[i]));
+}
+
+// The distance between two frames' joints whose x is coordinate i (m).
+double joint_dist(const std::vector<float>& a, const std::vector<float>& b, size_t i) {
+  return (Eigen::Vector3d(a[i], a[i + 1], a[i + 2]) - Eigen::Vector3d(b[i], b[i + 1], b[i + 2])).norm();
+}
+
 std::shared_ptr<const hs::StgaeModel> shipped_model() {
   return hs::load_hsm(std::filesystem::path(HS_FIXTURES) / ".." / ".." / "models" / "handsteady_xr26_causal.hsm");
 }
@@ -134,10 +153,7 @@ TEST_CASE("one stream: corrections that change little from frame to frame are sh
   const auto clean = frame_of(hand);
   std::mt19937_64 rng(13);
   std::normal_distribution<double> noise(0.0, 0.0005);
-  std::uniform_real_distribution<double> phase(0.0, 6.283);
-  std::vector<double> drag_phase(kFs), tremor_phase(kFs);
-  for (auto& v : drag_phase) v = phase(rng);
-  for (auto& v : tremor_phase) v = phase(rng);
+  const auto drag_phase = random_phases(rng), tremor_phase = random_phases(rng);
   CorrectionBound exact, erring, tremor;
   double e_raw = 0.0, e_exact = 0.0, e_erring = 0.0, e_unshrunk = 0.0, e_traw = 0.0, e_tremor = 0.0;
   for (int n = 0; n < 600; ++n) {
@@ -146,22 +162,19 @@ TEST_CASE("one stream: corrections that change little from frame to frame are sh
     auto xt = clean;  // the tremor's input
     for (size_t i = 0; i < kFs; ++i) xt[i] += static_cast<float>(0.001 * std::sin(2 * M_PI * 5.0 * t + tremor_phase[i]));
     auto p_exact = clean, p_erring = clean, p_tremor = clean;
-    for (size_t i = 0; i < kFs; ++i) p_erring[i] += static_cast<float>(0.002 * std::sin(2 * M_PI * 0.7 * t + drag_phase[i]));
+    add_drag(p_erring, t, drag_phase);
     const auto asked = p_erring;
     exact.apply(x, p_exact);
     erring.apply(x, p_erring);
     tremor.apply(xt, p_tremor);
     if (n < 90) continue;
-    const auto err = [&](const std::vector<float>& q, size_t i) {
-      return (Eigen::Vector3d(q[i], q[i + 1], q[i + 2]) - Eigen::Vector3d(clean[i], clean[i + 1], clean[i + 2])).norm();
-    };
     for (size_t i = 0; i < kFs; i += 3) {
-      e_raw += err(x, i);
-      e_exact += err(p_exact, i);
-      e_erring += err(p_erring, i);
-      e_unshrunk += err(asked, i);  // within the radius (3 noise RMS, 2.6 mm) nearly everywhere
-      e_traw += err(xt, i);
-      e_tremor += err(p_tremor, i);
+      e_raw += joint_dist(x, clean, i);
+      e_exact += joint_dist(p_exact, clean, i);
+      e_erring += joint_dist(p_erring, clean, i);
+      e_unshrunk += joint_dist(asked, clean, i);  // within the radius (3 noise RMS, 2.6 mm) nearly everywhere
+      e_traw += joint_dist(xt, clean, i);
+      e_tremor += joint_dist(p_tremor, clean, i);
     }
   }
   const double k = 1e3 / 510 / kJointCount;
@@ -183,28 +196,24 @@ TEST_CASE("with the noise measured too, a slow error of the network's own is shr
   const auto clean = frame_of(hand);
   std::mt19937_64 rng(17);
   std::normal_distribution<double> noise(0.0, 0.0005);
-  std::uniform_real_distribution<double> phase(0.0, 6.283);
-  std::vector<double> drag_phase(kFs);
-  for (auto& v : drag_phase) v = phase(rng);
+  const auto drag_phase = random_phases(rng);
   const std::vector<double> noise2(kJointCount, 3 * 0.0005 * 0.0005), jump(kJointCount, 0.0);
+  // E|c|^2 = E|n|^2 + E|e|^2 = 0.75 + 6 mm^2: twice the measured noise's share is 1.5 / 6.75.
+  const double twice = 2.0 * 0.75 / 6.75;
   CorrectionBound b;
   double e_raw = 0.0, e_ans = 0.0, e_twice = 0.0;
   for (int n = 0; n < 600; ++n) {
-    const double t = n / 30.0;
     const auto x = frame_of(jittered(hand, rng, noise));
     auto p = clean;
-    for (size_t i = 0; i < kFs; ++i) p[i] += static_cast<float>(0.002 * std::sin(2 * M_PI * 0.7 * t + drag_phase[i]));
-    const auto asked = p;
+    add_drag(p, n / 30.0, drag_phase);
+    auto at_twice = x;
+    for (size_t i = 0; i < kFs; ++i) at_twice[i] += static_cast<float>(twice * static_cast<double>(p[i] - x[i]));
     b.apply(x, p, noise2, jump);
     if (n < 90) continue;
-    // E|c|^2 = E|n|^2 + E|e|^2 = 0.75 + 6 mm^2: twice the measured noise's share is 1.5 / 6.75.
-    const double twice = 2.0 * 0.75 / 6.75;
     for (size_t i = 0; i < kFs; i += 3) {
-      const Eigen::Vector3d tr(clean[i], clean[i + 1], clean[i + 2]), xi(x[i], x[i + 1], x[i + 2]);
-      const Eigen::Vector3d a(asked[i], asked[i + 1], asked[i + 2]), q(p[i], p[i + 1], p[i + 2]);
-      e_raw += (xi - tr).norm();
-      e_ans += (q - tr).norm();
-      e_twice += (xi + twice * (a - xi) - tr).norm();
+      e_raw += joint_dist(x, clean, i);
+      e_ans += joint_dist(p, clean, i);
+      e_twice += joint_dist(at_twice, clean, i);
     }
   }
   const double k = 1e3 / 510 / kJointCount;
