@@ -9,6 +9,8 @@
 # With ../shared/data present the hand pose comes from a real HoloLens 2 recording and
 # the FPHA subject 5 table is computed too (HS_DEMO_FPHA=0 skips it). HS_DEMO_MODEL=FILE.hsm
 # runs the layer, the app's prediction line and the FPHA table with that model instead of the shipped one.
+# HS_DEMO_NET=dgn runs the network panel (and the FPHA table's network rows) with the layer's
+# `dgn` method, the shipped DGN model, instead of Multi-STGAE (`stgae`).
 # Usage: scripts/demo.sh [extra handsteady_demo options, e.g. --window]
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -49,7 +51,9 @@ if [ -n "${HS_DEMO_MODEL:-}" ]; then export HANDSTEADY_MODEL; HANDSTEADY_MODEL=$
 # A frame PNG every second; with ffmpeg installed every 3rd frame, made into a 30 fps video.
 every=90
 if command -v ffmpeg >/dev/null; then every=3; fi
-for method in stgae oneeuro; do
+net=${HS_DEMO_NET:-stgae}
+case "$net" in stgae|dgn) ;; *) echo "demo.sh: HS_DEMO_NET must be stgae or dgn, got '$net'" >&2; exit 2 ;; esac
+for method in "$net" oneeuro; do
   echo "== handsteady_demo, layer method $method (denoise) =="
   HANDSTEADY_MODE=denoise HANDSTEADY_METHOD=$method $b/sample_app/app/handsteady_demo --out "$out/$method" \
     --strokes "$out/handwriting_strokes.csv" --truth "$out/handwriting_clean.csv" --frames-every $every "$@"
@@ -61,7 +65,7 @@ done
 {
   echo "# Handwriting demo: \"ISMAR\", Parkinsonian tremor + tracker noise, replayed at 90 Hz"
   echo
-  for method in stgae oneeuro; do
+  for method in "$net" oneeuro; do
     echo "## HandSteady layer with \`$method\` (denoise)"
     echo
     cat "$out/$method/summary.md"
@@ -71,6 +75,6 @@ done
 
 if [ -d "$data/fpha/Subject_5" ] && [ "${HS_DEMO_FPHA:-1}" != 0 ]; then
   echo "== FPHA subject 5 table (README) =="
-  scripts/fpha_table.sh "$hs" "$data" "$out/fpha" | tee "$out/fpha_table.md"
+  HS_FPHA_NET=$net scripts/fpha_table.sh "$hs" "$data" "$out/fpha" | tee "$out/fpha_table.md"
 fi
-echo "demo: outputs in $out: summary.md, {stgae,oneeuro}/composite.png, {stgae,oneeuro}/index_tip_plot.png, frames"
+echo "demo: outputs in $out: summary.md, {$net,oneeuro}/composite.png, {$net,oneeuro}/index_tip_plot.png, frames"

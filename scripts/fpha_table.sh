@@ -14,30 +14,34 @@
 # (opt-in; docs/STGAE.md "Prediction smoothing").
 # HS_FPHA_TREMOR=1 adds `stgae-tremor`: the network behind the palm fit and the tremor
 # canceller (opt-in; docs/FILTERS.md "Tremor canceller").
+# HS_FPHA_NET=dgn runs the network rows with `--method dgn` (label `dgn`, the extra rows
+# `dgn-unbounded` and so on) and the shipped DGN model unless HANDSTEADY_MODEL names another.
 # Usage: scripts/fpha_table.sh HANDSTEADY_BINARY SHARED_DATA_DIR OUT_DIR
 set -euo pipefail
 hs=$1; data=$2; out=$3
 mkdir -p "$out"
 $hs import --format fpha --in "$data/fpha/Subject_5" --out "$out/clean.csv" >/dev/null
 methods=(raw oneeuro desp kalman)
-# The CLI finds the shipped model itself; HANDSTEADY_MODEL names another for every stgae row.
+net=${HS_FPHA_NET:-stgae}
+case "$net" in stgae|dgn) ;; *) echo "fpha_table.sh: HS_FPHA_NET must be stgae or dgn, got '$net'" >&2; exit 2 ;; esac
+# The CLI finds the shipped model itself; HANDSTEADY_MODEL names another for every network row.
 model=()
 if [ -n "${HANDSTEADY_MODEL:-}" ]; then model=(--model "$HANDSTEADY_MODEL"); fi
 has_stgae=0
-if probe=$($hs filter --method stgae "${model[@]}" --in "$out/clean.csv" --out "$out/probe.csv" 2>&1 >/dev/null); then
-  methods+=(stgae); has_stgae=1
+if probe=$($hs filter --method "$net" "${model[@]}" --in "$out/clean.csv" --out "$out/probe.csv" 2>&1 >/dev/null); then
+  methods+=("$net"); has_stgae=1
 elif [ ${#model[@]} -gt 0 ]; then
   echo "fpha_table.sh: HANDSTEADY_MODEL=$HANDSTEADY_MODEL cannot be run: $probe" >&2
   exit 2
 else
-  echo "(no Multi-STGAE model found: its rows are left out)"
+  echo "(no $net model found: its rows are left out)"
 fi
 # extra NAME OPTION...: a Multi-STGAE row with these `handsteady filter` options (the
 # model among them).
 extra() {
   local m=$1; shift
-  $hs filter --in "$d/noisy.csv" --out "$d/$m.csv" --method stgae "$@" >/dev/null
-  $hs filter --in "$d/noisy.csv" --out "$d/${m}_h50.csv" --method stgae "$@" --horizon-ms 50 >/dev/null
+  $hs filter --in "$d/noisy.csv" --out "$d/$m.csv" --method "$net" "$@" >/dev/null
+  $hs filter --in "$d/noisy.csv" --out "$d/${m}_h50.csv" --method "$net" "$@" --horizon-ms 50 >/dev/null
   den+=(--in "$m=$d/$m.csv"); pre+=(--in "$m=$d/${m}_h50.csv")
 }
 for preset in tracker paper tremor; do
@@ -46,16 +50,16 @@ for preset in tracker paper tremor; do
   $hs corrupt --in "$out/clean.csv" --out "$d/noisy.csv" --preset "$preset" --seed 1 >/dev/null
   den=(); pre=()
   for m in "${methods[@]}"; do
-    opt=(); if [ "$m" = stgae ]; then opt=("${model[@]}"); fi
+    opt=(); if [ "$m" = "$net" ]; then opt=("${model[@]}"); fi
     $hs filter --in "$d/noisy.csv" --out "$d/$m.csv" --method "$m" "${opt[@]}" >/dev/null
     $hs filter --in "$d/noisy.csv" --out "$d/${m}_h50.csv" --method "$m" "${opt[@]}" --horizon-ms 50 >/dev/null
     den+=(--in "$m=$d/$m.csv"); pre+=(--in "$m=$d/${m}_h50.csv")
   done
-  [ "${HS_FPHA_UNBOUNDED:-0}" = 1 ] && [ $has_stgae = 1 ] && extra stgae-unbounded "${model[@]}" --unbounded
-  [ "${HS_FPHA_NOPALMFIT:-0}" = 1 ] && [ $has_stgae = 1 ] && extra stgae-nopalmfit "${model[@]}" --no-palm-fit
-  [ "${HS_FPHA_SMOOTHED:-0}" = 1 ] && [ $has_stgae = 1 ] && extra stgae-smoothed "${model[@]}" --smooth-predictions
-  [ "${HS_FPHA_TREMOR:-0}" = 1 ] && [ $has_stgae = 1 ] && extra stgae-tremor "${model[@]}" --tremor-cancel
-  [ -n "${HS_CENTRED_MODEL:-}" ] && extra stgae-centred-window --offline --model "$HS_CENTRED_MODEL"
+  [ "${HS_FPHA_UNBOUNDED:-0}" = 1 ] && [ $has_stgae = 1 ] && extra "$net-unbounded" "${model[@]}" --unbounded
+  [ "${HS_FPHA_NOPALMFIT:-0}" = 1 ] && [ $has_stgae = 1 ] && extra "$net-nopalmfit" "${model[@]}" --no-palm-fit
+  [ "${HS_FPHA_SMOOTHED:-0}" = 1 ] && [ $has_stgae = 1 ] && extra "$net-smoothed" "${model[@]}" --smooth-predictions
+  [ "${HS_FPHA_TREMOR:-0}" = 1 ] && [ $has_stgae = 1 ] && extra "$net-tremor" "${model[@]}" --tremor-cancel
+  [ -n "${HS_CENTRED_MODEL:-}" ] && extra "$net-centred-window" --offline --model "$HS_CENTRED_MODEL"
   echo "#### \`$preset\` preset: denoising (H = 0)"
   $hs compare --truth "$out/clean.csv" "${den[@]}"
   echo
