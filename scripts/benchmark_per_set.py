@@ -9,7 +9,7 @@
 # and 50 ms, and the cells where B's H = 0 MPJPE is more than 0.5 % lower / higher.
 # Usage: scripts/benchmark_per_set.py [--by-rate] out/benchmark/benchmark.json
 #        scripts/benchmark_per_set.py --cells A.json LABEL_A B.json LABEL_B
-import collections, json, sys
+import collections, json, statistics, sys
 args = sys.argv[1:]
 if args[:1] == ['--cells']:
     if len(args) != 5:
@@ -25,10 +25,10 @@ if args[:1] == ['--cells']:
     mean = lambda v: sum(v) / len(v)
     for h in ('h0ms', 'h20ms', 'h50ms'):
         print(f'{h}: {mean([a[c][h]["mpjpe_mm"] for c in a]):.3f} -> {mean([b[c][h]["mpjpe_mm"] for c in a]):.3f} mm')
-    median = lambda v: sorted(v)[len(v) // 2] if len(v) % 2 else sum(sorted(v)[len(v) // 2 - 1:len(v) // 2 + 1]) / 2
     for h in ('h0ms', 'h50ms'):
         ratio = lambda d, c: d[c][h]['jitter_mm'] / d[c][h]['truth_jitter_mm']
-        print(f'{h} median jitter / truth\'s: {median([ratio(a, c) for c in a]):.2f} -> {median([ratio(b, c) for c in a]):.2f}')
+        print(f'{h} median jitter / truth\'s: {statistics.median([ratio(a, c) for c in a]):.2f} -> '
+              f'{statistics.median([ratio(b, c) for c in a]):.2f}')
     print(f'h0ms mean lag: {mean([a[c]["h0ms"]["lag_ms"] for c in a]):.2f} -> {mean([b[c]["h0ms"]["lag_ms"] for c in a]):.2f} ms')
     for s in sorted({r['set'] for r in a.values()}):
         cs = [c for c in a if a[c]['set'] == s]

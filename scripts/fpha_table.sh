@@ -27,16 +27,16 @@ case "$net" in stgae|dgn) ;; *) echo "fpha_table.sh: HS_FPHA_NET must be stgae o
 # The CLI finds the shipped model itself; HANDSTEADY_MODEL names another for every network row.
 model=()
 if [ -n "${HANDSTEADY_MODEL:-}" ]; then model=(--model "$HANDSTEADY_MODEL"); fi
-has_stgae=0
+has_net=0
 if probe=$($hs filter --method "$net" "${model[@]}" --in "$out/clean.csv" --out "$out/probe.csv" 2>&1 >/dev/null); then
-  methods+=("$net"); has_stgae=1
+  methods+=("$net"); has_net=1
 elif [ ${#model[@]} -gt 0 ]; then
   echo "fpha_table.sh: HANDSTEADY_MODEL=$HANDSTEADY_MODEL cannot be run: $probe" >&2
   exit 2
 else
   echo "(no $net model found: its rows are left out)"
 fi
-# extra NAME OPTION...: a Multi-STGAE row with these `handsteady filter` options (the
+# extra NAME OPTION...: a network row ($net) with these `handsteady filter` options (the
 # model among them).
 extra() {
   local m=$1; shift
@@ -55,10 +55,10 @@ for preset in tracker paper tremor; do
     $hs filter --in "$d/noisy.csv" --out "$d/${m}_h50.csv" --method "$m" "${opt[@]}" --horizon-ms 50 >/dev/null
     den+=(--in "$m=$d/$m.csv"); pre+=(--in "$m=$d/${m}_h50.csv")
   done
-  [ "${HS_FPHA_UNBOUNDED:-0}" = 1 ] && [ $has_stgae = 1 ] && extra "$net-unbounded" "${model[@]}" --unbounded
-  [ "${HS_FPHA_NOPALMFIT:-0}" = 1 ] && [ $has_stgae = 1 ] && extra "$net-nopalmfit" "${model[@]}" --no-palm-fit
-  [ "${HS_FPHA_SMOOTHED:-0}" = 1 ] && [ $has_stgae = 1 ] && extra "$net-smoothed" "${model[@]}" --smooth-predictions
-  [ "${HS_FPHA_TREMOR:-0}" = 1 ] && [ $has_stgae = 1 ] && extra "$net-tremor" "${model[@]}" --tremor-cancel
+  [ "${HS_FPHA_UNBOUNDED:-0}" = 1 ] && [ $has_net = 1 ] && extra "$net-unbounded" "${model[@]}" --unbounded
+  [ "${HS_FPHA_NOPALMFIT:-0}" = 1 ] && [ $has_net = 1 ] && extra "$net-nopalmfit" "${model[@]}" --no-palm-fit
+  [ "${HS_FPHA_SMOOTHED:-0}" = 1 ] && [ $has_net = 1 ] && extra "$net-smoothed" "${model[@]}" --smooth-predictions
+  [ "${HS_FPHA_TREMOR:-0}" = 1 ] && [ $has_net = 1 ] && extra "$net-tremor" "${model[@]}" --tremor-cancel
   [ -n "${HS_CENTRED_MODEL:-}" ] && extra "$net-centred-window" --offline --model "$HS_CENTRED_MODEL"
   echo "#### \`$preset\` preset: denoising (H = 0)"
   $hs compare --truth "$out/clean.csv" "${den[@]}"

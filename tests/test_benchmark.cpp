@@ -184,11 +184,13 @@ TEST_CASE("the grid on synthetic motion: noise is what it says, filters are scor
   bench::run_grid(sets, methods, o, r);
   REQUIRE(!r.results.empty());
   CHECK(r.results.size() % methods.size() == 0);
-  const auto find = [&](const std::string& family, const std::string& method) -> const bench::Result* {
-    for (const auto& x : r.results)
+  // A noise cell's result of one method in a report (r unless named).
+  const auto find_in = [](const bench::Report& rep, const std::string& family, const std::string& method) -> const bench::Result* {
+    for (const auto& x : rep.results)
       if (x.cell.block == "noise" && x.cell.family == family && x.method == method) return &x;
     return nullptr;
   };
+  const auto find = [&](const std::string& family, const std::string& method) { return find_in(r, family, method); };
   const auto* raw = find("white", "raw");
   const auto* kal = find("white", "kalman");
   const auto* oe = find("white", "oneeuro-tuned");
@@ -313,12 +315,9 @@ TEST_CASE("the grid on synthetic motion: noise is what it says, filters are scor
     if (x.cell.block == "recorded") CHECK(x.cell.rate_hz == 0.0);
   }
   CHECK(noise30 > 0);
-  const auto* raw30 = [&]() -> const bench::Result* {
-    for (const auto& x : r30.results)
-      if (x.cell.block == "noise" && x.cell.family == "white" && x.method == "raw" && x.cell.dataset == raw->cell.dataset) return &x;
-    return nullptr;
-  }();
+  const auto* raw30 = find_in(r30, "white", "raw");
   REQUIRE(raw30);
+  CHECK(raw30->cell.dataset == raw->cell.dataset);
   CHECK(raw->cell.rate_hz != 30.0);
   CHECK(raw30->at[0].frames * 2 < raw->at[0].frames);  // a third of the rows of the 90 Hz grid
 }
