@@ -288,6 +288,69 @@ TEST_CASE("a one-frame outlier is taken back whole, missing joints are not bound
   CHECK(max_diff(p.data() + kFs, clean.data(), kFs) < 1e-7);
 }
 
+TEST_CASE("predicted displacements the input's future does not confirm are taken back; a hand setting off keeps its") {
+  // 30 Hz, 1 mm of white jitter. For 3 s the hand is still and the network answers it
+  // exactly but predicts it moving 2 mm a period back and forth at 10 Hz (a tremor it
+  // extrapolates); then the hand sets off at 6 mm a period and the network predicts that.
+  CorrectionBound b(4);
+  const hs::Pose hand = hs::test::synthetic_hand();
+  const auto clean = frame_of(hand);
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> noise(0.0, 0.001);
+  const auto phase = random_phases(rng);
+  constexpr double kRate = 30.0, kStep = 0.006;
+  constexpr int kStill = 90;
+  std::array<double, 4> err{}, made{};  // still, last second: per path frame, answer and network error (m)
+  double moving_err = 0.0;              // moving, frames 3-10: frame 2's error
+  for (int n = 0; n < kStill + 11; ++n) {
+    const double t = n / kRate;
+    const int moved = std::max(n - kStill, 0);
+    auto truth_at = [&](int ahead) {
+      auto x = clean;
+      const int m = n + ahead > kStill ? n + ahead - kStill : 0;
+      for (size_t i = 0; i < kFs; i += 3) x[i] += static_cast<float>(m * kStep);
+      return x;
+    };
+    const auto now = truth_at(0);
+    auto x = now;
+    for (auto& v : x) v += static_cast<float>(noise(rng));
+    std::vector<float> path(4 * kFs);
+    for (size_t f = 0; f < 4; ++f) {
+      const auto ahead = truth_at(static_cast<int>(f));
+      for (size_t i = 0; i < kFs; ++i) {
+        const double shake = n < kStill ? 0.002 * static_cast<double>(f) * std::sin(2 * M_PI * 10.0 * t + phase[i]) : 0.0;
+        path[f * kFs + i] = ahead[i] + static_cast<float>(shake);
+      }
+    }
+    const auto network = path;
+    b.apply(x, path);
+    for (size_t f = 1; f < 4; ++f) {
+      const auto ahead = truth_at(static_cast<int>(f));
+      // Joint i / 3 of path frame f from where the hand then is (m).
+      const auto off = [&](const std::vector<float>& p, size_t i) {
+        const float* q = p.data() + f * kFs + i;
+        return (Eigen::Vector3d(q[0], q[1], q[2]) - Eigen::Vector3d(ahead[i], ahead[i + 1], ahead[i + 2])).norm();
+      };
+      for (size_t i = 0; i < kFs; i += 3) {
+        if (n >= kStill - 30 && n < kStill) {
+          err[f] += off(path, i) / (30.0 * kJointCount);
+          made[f] += off(network, i) / (30.0 * kJointCount);
+        }
+        if (f == 2 && moved >= 3) moving_err += off(path, i) / (8.0 * kJointCount);
+      }
+    }
+  }
+  for (size_t f = 1; f < 4; ++f) {
+    CAPTURE(f);
+    MESSAGE("still hand, " << f << " periods ahead: " << err[f] * 1e3 << " mm from the hand (the network's "
+                           << made[f] * 1e3 << " mm)");
+    if (f < static_cast<size_t>(hs::kPredictionGainFirstFrame)) CHECK(err[f] > 0.8 * made[f]);  // kept as predicted
+    else CHECK(err[f] < 0.5 * made[f]);
+  }
+  MESSAGE("setting off at 18 cm/s, 2 periods ahead (12 mm): " << moving_err * 1e3 << " mm from the hand");
+  CHECK(moving_err < 0.003);
+}
+
 TEST_CASE("clean motion at constant velocity: predictions are pulled onto the input's own line") {
   CorrectionBound b(5);
   const auto hand = frame_of(hs::test::synthetic_hand());

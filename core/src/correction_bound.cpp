@@ -52,7 +52,12 @@ CorrectionBound::CorrectionBound(int frames)
       spread_(static_cast<size_t>(frames_ * kJointCount)),
       last_(static_cast<size_t>(frames_ * kJointCount)),
       bias_count_(static_cast<size_t>(frames_ * kJointCount)),
-      corr_(static_cast<size_t>(hist_) * kJointCount) {
+      corr_(static_cast<size_t>(hist_) * kJointCount),
+      applied_(static_cast<size_t>(hist_ * (frames_ - 1)) * kJointCount),
+      den_(static_cast<size_t>(hist_) * kJointCount),
+      pred_noise2_(static_cast<size_t>(frames_ * kJointCount)),
+      pred_power2_(static_cast<size_t>(frames_ * kJointCount)),
+      pred_count_(static_cast<size_t>(frames_ * kJointCount)) {
   reset();
 }
 
@@ -72,6 +77,12 @@ void CorrectionBound::reset() noexcept {
   std::fill(corr_.begin(), corr_.end(), Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN()));
   corr_lag1_.fill(0.0);
   corr_lag2_.fill(0.0);
+  const Eigen::Vector3d none = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  std::fill(applied_.begin(), applied_.end(), none);
+  std::fill(den_.begin(), den_.end(), none);
+  std::fill(pred_noise2_.begin(), pred_noise2_.end(), 0.0);
+  std::fill(pred_power2_.begin(), pred_power2_.end(), 0.0);
+  std::fill(pred_count_.begin(), pred_count_.end(), 0);
 }
 
 const float* CorrectionBound::x_back(long back) const noexcept {
@@ -92,6 +103,29 @@ double CorrectionBound::correlated_noise2(size_t j, const Eigen::Vector3d& c) no
   return std::max(0.0, corr2_[j] - std::min(corr_lag1_[j], corr_lag2_[j]));
 }
 
+Eigen::Vector3d CorrectionBound::gained(size_t f, size_t j, const Eigen::Vector3d& e, const Eigen::Vector3d& x_now,
+                                        bool evidence) noexcept {
+  const size_t b = f * kJointCount + j, per = static_cast<size_t>(frames_ - 1) * kJointCount;
+  const auto now = static_cast<size_t>(n_ % hist_);
+  applied_[now * per + (f - 1) * kJointCount + j] = e;
+  if (f < static_cast<size_t>(kPredictionGainFirstFrame)) return e;
+  const auto back = static_cast<long>(f);
+  if (evidence && n_ >= back) {  // the displacement made f frames ago, against where the input went since
+    const auto then = static_cast<size_t>((n_ - back) % hist_);
+    const Eigen::Vector3d& e_then = applied_[then * per + (f - 1) * kJointCount + j];
+    const Eigen::Vector3d& den_then = den_[then * kJointCount + j];
+    if (e_then.allFinite() && den_then.allFinite()) {
+      const double w = running_weight(pred_count_[b], kPredictionNoiseFrames);
+      pred_noise2_[b] += w * (e_then.squaredNorm() - e_then.dot(x_now - den_then) - pred_noise2_[b]);
+    }
+  }
+  pred_power2_[b] += (1.0 / kPredictionPowerFrames) * (e.squaredNorm() - pred_power2_[b]);
+  const double noise2 = std::max(pred_noise2_[b], 0.0);
+  if (!(pred_power2_[b] > 0.0) || noise2 <= 0.0) return e;
+  const double warm = std::min(1.0, static_cast<double>(pred_count_[b]) / kPredictionGainWarmRows);
+  return e * (1.0 - warm * std::min(1.0, noise2 / pred_power2_[b]));
+}
+
 void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std::span<const double> noise2,
                             std::span<const double> jump) noexcept {
   const bool measured = noise2.size() >= kJointCount && jump.size() >= kJointCount;
@@ -107,7 +141,10 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std
     const auto ju = static_cast<size_t>(j);
     const size_t o = 3 * ju;
     radius_[ju] = kInf;
-    corr_[slot * kJointCount + ju] = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+    const Eigen::Vector3d none = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+    corr_[slot * kJointCount + ju] = none;
+    den_[slot * kJointCount + ju] = none;
+    for (size_t f = 1; f < F; ++f) applied_[(slot * (F - 1) + f - 1) * kJointCount + ju] = none;
     if (!finite_xyz(x_now + o)) continue;
     const Eigen::Vector3d xn = load(x_now + o);
     const float* x1 = n_ >= 1 ? x_back(1) + o : nullptr;
@@ -143,6 +180,9 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std
     }
     const Eigen::Vector3d den = clamp_into(Eigen::Vector3d(xn + c), xn, r);
     store(den, dj);
+    den_[slot * kJointCount + ju] = den;
+    // This row says where the displacements made before went, unless it is a jump.
+    const bool evidence = measured ? !(jump[ju] > 0.0) : !(a > kCorrectionNoiseFactor * s);
     // Predicted frame f: the network's displacement less its mean excess over what the
     // input did in f frames, then within reach of constant velocity from the denoised
     // frame: one RMS of the velocity's noise (s / sqrt(3) per period) and of the recent
@@ -164,7 +204,8 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std
       }
       const double fd = static_cast<double>(f);
       const double reach = s * (fd / std::sqrt(3.0) + 0.5 * fd * fd) + fd * a;
-      store(clamp_into(den + disp - significant(bias_[b], spread_[b], bias_count_[b]), den + fd * v, reach), pf);
+      const Eigen::Vector3d e = gained(f, ju, disp - significant(bias_[b], spread_[b], bias_count_[b]), xn, evidence);
+      store(clamp_into(den + e, den + fd * v, reach), pf);
     }
   }
   ++n_;

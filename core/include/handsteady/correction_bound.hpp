@@ -5,7 +5,9 @@
 // correction, a bias does not) are taken out, of the denoised frame and of each predicted
 // displacement; what is left of a correction is shrunk to the share that noise explains
 // (read from the correction's own correlation over frames, and bounded by the noise
-// measured at the input rate where there is one). A clean still hand is answered exactly,
+// measured at the input rate where there is one); a predicted displacement is shrunk by
+// the share of it that the input's future has not been confirming (a Wiener gain per
+// joint and horizon). A clean still hand is answered exactly,
 // from the first frame on; a noisy hand leaves the network free. Per stream (frames one model
 // period apart), no allocation after construction, noexcept. docs/STGAE.md "Trust region".
 #include "handsteady/skeleton.hpp"
@@ -57,6 +59,21 @@ inline double explained_share(double mean2, double explained) noexcept {
 }
 inline constexpr double kCorrectionRoughnessFrames = 15.0;
 inline constexpr double kCorrectionBiasFrames = 30.0;
+// Predicted displacements (frame f, f >= kPredictionGainFirstFrame, joint j): e = d + v, d
+// what the hand will do, v what it will not (noise or tremor the network extrapolated, its
+// own error). Once the input of f frames later is in, |e_then|^2 - e_then . (x_now -
+// den_then) samples E|v|^2 (the input's own noise then is independent of e_then); its
+// running mean over kPredictionNoiseFrames frames is the displacement's noise, and e is
+// scaled by the Wiener gain 1 - E|v|^2 / P, P the mean of |e|^2 over the last
+// kPredictionPowerFrames frames (at least E|v|^2): a displacement well above its noise (a
+// hand setting off) is kept, one at the level of its noise (a still or shaking hand) taken
+// back towards the denoised frame. Fading in over kPredictionGainWarmRows samples. Frame
+// 1 is kept as predicted: one period ahead is also the older streams' share of an answer
+// at the input's own time. Chosen on the tuning split (docs/STGAE.md "Prediction gain").
+inline constexpr int kPredictionGainFirstFrame = 2;
+inline constexpr double kPredictionNoiseFrames = 30.0;
+inline constexpr double kPredictionPowerFrames = 1.5;
+inline constexpr int kPredictionGainWarmRows = 20;
 
 class CorrectionBound {
  public:
@@ -69,7 +86,8 @@ class CorrectionBound {
   // - denoised: less the network's mean offset, then pulled to within the radius of x;
   // - predicted frame f: the denoised one plus the network's predicted displacement less
   //   its mean excess over the displacement the input then made (measured f frames later),
-  //   then held within reach of constant velocity (x's last step) from the denoised one.
+  //   scaled by its Wiener gain (f >= kPredictionGainFirstFrame), then held within reach
+  //   of constant velocity (x's last step) from the denoised one.
   // Joints missing in x are not bound.
   void apply(std::span<const float> x, std::span<float> path) noexcept { apply(x, path, {}, {}); }
   // The same with the input's noise measured at the input rate (InputNoise): E|n|^2 per
@@ -102,12 +120,23 @@ class CorrectionBound {
   // each with those one and two frames before it, m^2.
   std::vector<Eigen::Vector3d> corr_;
   std::array<double, kJointCount> corr_lag1_{}, corr_lag2_{};
+  // Prediction gain: the displacements applied (before the gain) and the denoised frames of
+  // the ring's frames (NaN: none), and per path frame and joint the displacement's noise
+  // E|v|^2 and recent power, m^2.
+  std::vector<Eigen::Vector3d> applied_, den_;
+  std::vector<double> pred_noise2_, pred_power2_;
+  std::vector<int> pred_count_;
 
   const float* x_back(long back) const noexcept;  // the input `back` frames ago (0 = now)
   const Eigen::Vector3d& corr_back(long back, size_t joint) const noexcept;  // a correction `back` frames ago
   // Takes correction c (joint j, a row that is no jump) into the running means and returns
   // E|n|^2 as they read it.
   double correlated_noise2(size_t j, const Eigen::Vector3d& c) noexcept;
+  // Displacement e of path frame f (index b = f * kJointCount + j) scaled by its Wiener
+  // gain, after taking in what the input x_now says of the one made f frames ago
+  // (`evidence`: this row is no jump).
+  Eigen::Vector3d gained(size_t f, size_t j, const Eigen::Vector3d& e, const Eigen::Vector3d& x_now,
+                         bool evidence) noexcept;
 };
 
 }  // namespace hs
