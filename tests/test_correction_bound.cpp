@@ -288,7 +288,7 @@ TEST_CASE("a one-frame outlier is taken back whole, missing joints are not bound
   CHECK(max_diff(p.data() + kFs, clean.data(), kFs) < 1e-7);
 }
 
-TEST_CASE("predicted displacements the input's future does not confirm are taken back; a hand setting off keeps its") {
+TEST_CASE("predicted displacements the input's future does not confirm are taken back, a hand setting off keeps its") {
   // 30 Hz, 1 mm of white jitter. For 3 s the hand is still and the network answers it
   // exactly but predicts it moving 2 mm a period back and forth at 10 Hz (a tremor it
   // extrapolates); then the hand sets off at 6 mm a period and the network predicts that.
