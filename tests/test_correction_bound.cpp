@@ -54,9 +54,13 @@ void add_drag(std::vector<float>& path, double t, const std::vector<double>& pha
   for (size_t i = 0; i < kFs; ++i) path[i] += static_cast<float>(0.002 * std::sin(2 * M_PI * 0.7 * t + phase[i]));
 }
 
+// The distance between the points whose xyz start at a and b (m).
+double joint_dist(const float* a, const float* b) {
+  return (Eigen::Vector3d(a[0], a[1], a[2]) - Eigen::Vector3d(b[0], b[1], b[2])).norm();
+}
 // The distance between two frames' joints whose x is coordinate i (m).
 double joint_dist(const std::vector<float>& a, const std::vector<float>& b, size_t i) {
-  return (Eigen::Vector3d(a[i], a[i + 1], a[i + 2]) - Eigen::Vector3d(b[i], b[i + 1], b[i + 2])).norm();
+  return joint_dist(a.data() + i, b.data() + i);
 }
 
 std::shared_ptr<const hs::StgaeModel> shipped_model() {
@@ -327,10 +331,7 @@ TEST_CASE("predicted displacements the input's future does not confirm are taken
     for (size_t f = 1; f < 4; ++f) {
       const auto ahead = truth_at(static_cast<int>(f));
       // Joint i / 3 of path frame f from where the hand then is (m).
-      const auto off = [&](const std::vector<float>& p, size_t i) {
-        const float* q = p.data() + f * kFs + i;
-        return (Eigen::Vector3d(q[0], q[1], q[2]) - Eigen::Vector3d(ahead[i], ahead[i + 1], ahead[i + 2])).norm();
-      };
+      const auto off = [&](const std::vector<float>& p, size_t i) { return joint_dist(p.data() + f * kFs + i, ahead.data() + i); };
       for (size_t i = 0; i < kFs; i += 3) {
         if (n >= kStill - 30 && n < kStill) {
           err[f] += off(path, i) / (30.0 * kJointCount);

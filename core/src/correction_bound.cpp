@@ -9,6 +9,8 @@ namespace hs {
 
 namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
+// A ring's entry for a frame that has none (the joint unseen, or no frame yet).
+Eigen::Vector3d none() noexcept { return Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN()); }
 
 Eigen::Vector3d load(const float* p) noexcept { return Eigen::Vector3f(p[0], p[1], p[2]).cast<double>(); }
 void store(const Eigen::Vector3d& v, float* p) noexcept {
@@ -70,28 +72,33 @@ void CorrectionBound::reset() noexcept {
   radius_.fill(kInf);
   std::fill(bias_.begin(), bias_.end(), Eigen::Vector3d::Zero());
   std::fill(spread_.begin(), spread_.end(), 0.0);
-  std::fill(last_.begin(), last_.end(), Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN()));
+  std::fill(last_.begin(), last_.end(), none());
   std::fill(bias_count_.begin(), bias_count_.end(), 0);
   corr2_.fill(0.0);
   corr_count_.fill(0);
-  std::fill(corr_.begin(), corr_.end(), Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN()));
+  std::fill(corr_.begin(), corr_.end(), none());
   corr_lag1_.fill(0.0);
   corr_lag2_.fill(0.0);
-  const Eigen::Vector3d none = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
-  std::fill(applied_.begin(), applied_.end(), none);
-  std::fill(den_.begin(), den_.end(), none);
+  std::fill(applied_.begin(), applied_.end(), none());
+  std::fill(den_.begin(), den_.end(), none());
   std::fill(pred_noise2_.begin(), pred_noise2_.end(), 0.0);
   std::fill(pred_power2_.begin(), pred_power2_.end(), 0.0);
   std::fill(pred_count_.begin(), pred_count_.end(), 0);
 }
 
 const float* CorrectionBound::x_back(long back) const noexcept {
-  return x_.data() + static_cast<size_t>((n_ - back) % hist_) * kFs;
+  return x_.data() + ring(back) * kFs;
 }
 
 const Eigen::Vector3d& CorrectionBound::corr_back(long back, size_t joint) const noexcept {
-  return corr_[static_cast<size_t>((n_ - back) % hist_) * kJointCount + joint];
+  return corr_[ring(back) * kJointCount + joint];
 }
+
+Eigen::Vector3d& CorrectionBound::applied_back(long back, size_t f, size_t joint) noexcept {
+  return applied_[(ring(back) * static_cast<size_t>(frames_ - 1) + f - 1) * kJointCount + joint];
+}
+
+Eigen::Vector3d& CorrectionBound::den_back(long back, size_t joint) noexcept { return den_[ring(back) * kJointCount + joint]; }
 
 double CorrectionBound::correlated_noise2(size_t j, const Eigen::Vector3d& c) noexcept {
   const double w = running_weight(corr_count_[j], kCorrectionBiasFrames);
@@ -99,21 +106,19 @@ double CorrectionBound::correlated_noise2(size_t j, const Eigen::Vector3d& c) no
   // The frames before may be missing (the joint unseen, a jump): their products are skipped.
   if (n_ >= 1 && corr_back(1, j).allFinite()) corr_lag1_[j] += w * (c.dot(corr_back(1, j)) - corr_lag1_[j]);
   if (n_ >= 2 && corr_back(2, j).allFinite()) corr_lag2_[j] += w * (c.dot(corr_back(2, j)) - corr_lag2_[j]);
-  corr_[static_cast<size_t>(n_ % hist_) * kJointCount + j] = c;
+  corr_[ring(0) * kJointCount + j] = c;
   return std::max(0.0, corr2_[j] - std::min(corr_lag1_[j], corr_lag2_[j]));
 }
 
 Eigen::Vector3d CorrectionBound::gained(size_t f, size_t j, const Eigen::Vector3d& e, const Eigen::Vector3d& x_now,
                                         bool evidence) noexcept {
-  const size_t b = f * kJointCount + j, per = static_cast<size_t>(frames_ - 1) * kJointCount;
-  const auto now = static_cast<size_t>(n_ % hist_);
-  applied_[now * per + (f - 1) * kJointCount + j] = e;
+  const size_t b = f * kJointCount + j;
+  applied_back(0, f, j) = e;
   if (f < static_cast<size_t>(kPredictionGainFirstFrame)) return e;
   const auto back = static_cast<long>(f);
   if (evidence && n_ >= back) {  // the displacement made f frames ago, against where the input went since
-    const auto then = static_cast<size_t>((n_ - back) % hist_);
-    const Eigen::Vector3d& e_then = applied_[then * per + (f - 1) * kJointCount + j];
-    const Eigen::Vector3d& den_then = den_[then * kJointCount + j];
+    const Eigen::Vector3d& e_then = applied_back(back, f, j);
+    const Eigen::Vector3d& den_then = den_back(back, j);
     if (e_then.allFinite() && den_then.allFinite()) {
       const double w = running_weight(pred_count_[b], kPredictionNoiseFrames);
       pred_noise2_[b] += w * (e_then.squaredNorm() - e_then.dot(x_now - den_then) - pred_noise2_[b]);
@@ -132,7 +137,7 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std
   const auto F = static_cast<size_t>(frames_);
   if (x.size() < kFs || path.size() < kFs * F) return;
   // The ring's slot for this frame: the input, and the network's displacements.
-  const auto slot = static_cast<size_t>(n_ % hist_);
+  const size_t slot = ring(0);
   float* x_now = x_.data() + slot * kFs;
   std::copy(x.begin(), x.begin() + kFs, x_now);
   float* disp_now = disp_.data() + slot * (F - 1) * kFs;
@@ -141,10 +146,9 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std
     const auto ju = static_cast<size_t>(j);
     const size_t o = 3 * ju;
     radius_[ju] = kInf;
-    const Eigen::Vector3d none = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
-    corr_[slot * kJointCount + ju] = none;
-    den_[slot * kJointCount + ju] = none;
-    for (size_t f = 1; f < F; ++f) applied_[(slot * (F - 1) + f - 1) * kJointCount + ju] = none;
+    corr_[slot * kJointCount + ju] = none();
+    den_back(0, ju) = none();
+    for (size_t f = 1; f < F; ++f) applied_back(0, f, ju) = none();
     if (!finite_xyz(x_now + o)) continue;
     const Eigen::Vector3d xn = load(x_now + o);
     const float* x1 = n_ >= 1 ? x_back(1) + o : nullptr;
@@ -180,7 +184,7 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std
     }
     const Eigen::Vector3d den = clamp_into(Eigen::Vector3d(xn + c), xn, r);
     store(den, dj);
-    den_[slot * kJointCount + ju] = den;
+    den_back(0, ju) = den;
     // This row says where the displacements made before went, unless it is a jump.
     const bool evidence = measured ? !(jump[ju] > 0.0) : !(a > kCorrectionNoiseFactor * s);
     // Predicted frame f: the network's displacement less its mean excess over what the
@@ -198,7 +202,7 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std
       const auto back = static_cast<long>(f);
       if (n_ >= back) {  // the displacement predicted f frames ago, against the input's since
         const float* then = x_back(back) + o;
-        const float* said = disp_.data() + static_cast<size_t>((n_ - back) % hist_) * (F - 1) * kFs + (f - 1) * kFs + o;
+        const float* said = disp_.data() + ring(back) * (F - 1) * kFs + (f - 1) * kFs + o;
         if (finite_xyz(then) && finite_xyz(said))
           mean_step(bias_[b], spread_[b], last_[b], bias_count_[b], load(said) - (xn - load(then)), noise_r);
       }

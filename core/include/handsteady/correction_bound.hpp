@@ -127,8 +127,13 @@ class CorrectionBound {
   std::vector<double> pred_noise2_, pred_power2_;
   std::vector<int> pred_count_;
 
+  // The rings' slot of the frame `back` frames ago (0 = now); every ring is indexed by it.
+  size_t ring(long back) const noexcept { return static_cast<size_t>((n_ - back) % hist_); }
   const float* x_back(long back) const noexcept;  // the input `back` frames ago (0 = now)
   const Eigen::Vector3d& corr_back(long back, size_t joint) const noexcept;  // a correction `back` frames ago
+  // The displacement applied to path frame f (before its gain) and the denoised frame, `back` frames ago.
+  Eigen::Vector3d& applied_back(long back, size_t f, size_t joint) noexcept;
+  Eigen::Vector3d& den_back(long back, size_t joint) noexcept;
   // Takes correction c (joint j, a row that is no jump) into the running means and returns
   // E|n|^2 as they read it.
   double correlated_noise2(size_t j, const Eigen::Vector3d& c) noexcept;
