@@ -6,7 +6,9 @@
 # With --cells A.json LABEL_A B.json LABEL_B: method B against method A (two runs of the same
 # grid and seed, or one run), cell by cell: means at H = 0, 20 and 50 ms, the median jitter ÷ the
 # truth's at H = 0 and 50 ms, the mean lag, per set at H = 0
-# and 50 ms, and the cells where B's H = 0 MPJPE is more than 0.5 % lower / higher.
+# and 50 ms, and the cells where B's H = 0 MPJPE is more than 0.5 % lower / higher; at 50 ms
+# the same count and every noise cell's change, then each cell of the other blocks (rates,
+# hand shapes, recordings without truth) at 50 ms.
 # Usage: scripts/benchmark_per_set.py [--by-rate] out/benchmark/benchmark.json
 #        scripts/benchmark_per_set.py --cells A.json LABEL_A B.json LABEL_B
 import collections, json, statistics, sys
@@ -38,6 +40,18 @@ if args[:1] == ['--cells']:
     ratio = [b[c]['h0ms']['mpjpe_mm'] / a[c]['h0ms']['mpjpe_mm'] for c in a]
     print(f'cells better / worse by more than 0.5 % at H = 0: {sum(r < 0.995 for r in ratio)} / '
           f'{sum(r > 1.005 for r in ratio)} of {len(ratio)}')
+    r50 = {c: b[c]['h50ms']['mpjpe_mm'] / a[c]['h50ms']['mpjpe_mm'] for c in a}
+    print(f'cells better / worse by more than 0.5 % at 50 ms: {sum(r < 0.995 for r in r50.values())} / '
+          f'{sum(r > 1.005 for r in r50.values())} of {len(r50)}')
+    for c in sorted(r50, key=r50.get):  # every noise cell's 50 ms change, best first
+        print(f'  50 ms {100 * (r50[c] - 1):+.1f} %  {c}')
+    # The other blocks (rates, hand shapes, recordings without truth), cell by cell at 50 ms.
+    other = lambda path, label: {r['cell']: r for r in json.load(open(path))['results']
+                                 if r['block'] != 'noise' and r['method'] == label}
+    oa, ob = other(args[1], args[2]), other(args[3], args[4])
+    for c in sorted(oa.keys() & ob.keys()):
+        x, y = oa[c]['h50ms']['mpjpe_mm'], ob[c]['h50ms']['mpjpe_mm']
+        print(f'{c}: 50 ms {x:.3f} -> {y:.3f} ({100 * (y / x - 1):+.1f} %)')
     sys.exit(0)
 by_rate = args[:1] == ['--by-rate']
 if by_rate:
