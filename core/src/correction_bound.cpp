@@ -59,7 +59,14 @@ CorrectionBound::CorrectionBound(int frames)
       den_(static_cast<size_t>(hist_) * kJointCount),
       pred_noise2_(static_cast<size_t>(frames_ * kJointCount)),
       pred_power2_(static_cast<size_t>(frames_ * kJointCount)),
-      pred_count_(static_cast<size_t>(frames_ * kJointCount)) {
+      pred_count_(static_cast<size_t>(frames_ * kJointCount)),
+      gain_out_(static_cast<size_t>(hist_ * (frames_ - 1)) * kJointCount),
+      cv_less_(static_cast<size_t>(hist_ * (frames_ - 1)) * kJointCount),
+      blend_num_(static_cast<size_t>(frames_)),
+      blend_den_(static_cast<size_t>(frames_)),
+      row_num_(static_cast<size_t>(frames_)),
+      row_den_(static_cast<size_t>(frames_)),
+      blend_count_(static_cast<size_t>(frames_)) {
   reset();
 }
 
@@ -84,6 +91,10 @@ void CorrectionBound::reset() noexcept {
   std::fill(pred_noise2_.begin(), pred_noise2_.end(), 0.0);
   std::fill(pred_power2_.begin(), pred_power2_.end(), 0.0);
   std::fill(pred_count_.begin(), pred_count_.end(), 0);
+  std::fill(gain_out_.begin(), gain_out_.end(), none());
+  std::fill(cv_less_.begin(), cv_less_.end(), none());
+  for (auto* v : {&blend_num_, &blend_den_, &row_num_, &row_den_}) std::fill(v->begin(), v->end(), 0.0);
+  std::fill(blend_count_.begin(), blend_count_.end(), 0);
 }
 
 const float* CorrectionBound::x_back(long back) const noexcept {
@@ -99,6 +110,14 @@ Eigen::Vector3d& CorrectionBound::applied_back(long back, size_t f, size_t joint
 }
 
 Eigen::Vector3d& CorrectionBound::den_back(long back, size_t joint) noexcept { return den_[ring(back) * kJointCount + joint]; }
+
+Eigen::Vector3d& CorrectionBound::gain_out_back(long back, size_t f, size_t joint) noexcept {
+  return gain_out_[(ring(back) * static_cast<size_t>(frames_ - 1) + f - 1) * kJointCount + joint];
+}
+
+Eigen::Vector3d& CorrectionBound::cv_less_back(long back, size_t f, size_t joint) noexcept {
+  return cv_less_[(ring(back) * static_cast<size_t>(frames_ - 1) + f - 1) * kJointCount + joint];
+}
 
 double CorrectionBound::correlated_noise2(size_t j, const Eigen::Vector3d& c) noexcept {
   const double w = running_weight(corr_count_[j], kCorrectionBiasFrames);
@@ -131,6 +150,26 @@ Eigen::Vector3d CorrectionBound::gained(size_t f, size_t j, const Eigen::Vector3
   return e * (1.0 - warm * std::min(1.0, noise2 / pred_power2_[b]));
 }
 
+Eigen::Vector3d CorrectionBound::blended(size_t f, size_t j, const Eigen::Vector3d& g, const Eigen::Vector3d& c,
+                                         const Eigen::Vector3d& x_now, bool evidence) noexcept {
+  gain_out_back(0, f, j) = g;
+  const Eigen::Vector3d q = c - g;
+  cv_less_back(0, f, j) = q;
+  const auto back = static_cast<long>(f);
+  if (evidence && n_ >= back) {  // the pair made f frames ago, against where the input went since
+    const Eigen::Vector3d& g_then = gain_out_back(back, f, j);
+    const Eigen::Vector3d& q_then = cv_less_back(back, f, j);
+    const Eigen::Vector3d& den_then = den_back(back, j);
+    if (g_then.allFinite() && q_then.allFinite() && den_then.allFinite()) {
+      row_num_[f] += q_then.dot(x_now - den_then - g_then);
+      row_den_[f] += q_then.squaredNorm();
+    }
+  }
+  if (!q.allFinite() || !(blend_den_[f] > 0.0)) return g;
+  const double warm = std::min(1.0, static_cast<double>(blend_count_[f]) / kPredictionGainWarmRows);
+  return g + warm * std::clamp(blend_num_[f] / blend_den_[f], 0.0, 1.0) * q;
+}
+
 void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std::span<const double> noise2,
                             std::span<const double> jump) noexcept {
   const bool measured = noise2.size() >= kJointCount && jump.size() >= kJointCount;
@@ -142,13 +181,15 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std
   std::copy(x.begin(), x.begin() + kFs, x_now);
   float* disp_now = disp_.data() + slot * (F - 1) * kFs;
   std::fill(disp_now, disp_now + (F - 1) * kFs, kNaNf);
+  std::fill(row_num_.begin(), row_num_.end(), 0.0);
+  std::fill(row_den_.begin(), row_den_.end(), 0.0);
   for (int j = 0; j < kJointCount; ++j) {
     const auto ju = static_cast<size_t>(j);
     const size_t o = 3 * ju;
     radius_[ju] = kInf;
     corr_[slot * kJointCount + ju] = none();
     den_back(0, ju) = none();
-    for (size_t f = 1; f < F; ++f) applied_back(0, f, ju) = none();
+    for (size_t f = 1; f < F; ++f) applied_back(0, f, ju) = gain_out_back(0, f, ju) = cv_less_back(0, f, ju) = none();
     if (!finite_xyz(x_now + o)) continue;
     const Eigen::Vector3d xn = load(x_now + o);
     const float* x1 = n_ >= 1 ? x_back(1) + o : nullptr;
@@ -193,6 +234,10 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std
     // accelerations (s per period^2), plus f times this frame's jump (an outlier now
     // throws the velocity off by that much).
     const Eigen::Vector3d v = have1 ? Eigen::Vector3d(xn - load(x1)) : Eigen::Vector3d::Zero();
+    // The denoised frames' mean step over the last kPredictionBlendStepFrames (NaN: none
+    // that far back), the velocity forecast's.
+    constexpr long kStep = kPredictionBlendStepFrames;
+    const Eigen::Vector3d den_step = n_ >= kStep ? Eigen::Vector3d((den - den_back(kStep, ju)) / kStep) : none();
     for (size_t f = 1; f < F; ++f) {
       float* pf = path.data() + f * kFs + o;
       if (!finite_xyz(pf)) continue;
@@ -208,9 +253,16 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std
       }
       const double fd = static_cast<double>(f);
       const double reach = s * (fd / std::sqrt(3.0) + 0.5 * fd * fd) + fd * a;
-      const Eigen::Vector3d e = gained(f, ju, disp - significant(bias_[b], spread_[b], bias_count_[b]), xn, evidence);
+      const Eigen::Vector3d g = gained(f, ju, disp - significant(bias_[b], spread_[b], bias_count_[b]), xn, evidence);
+      const Eigen::Vector3d e = blended(f, ju, g, fd * den_step, xn, evidence);
       store(clamp_into(den + e, den + fd * v, reach), pf);
     }
+  }
+  for (size_t f = 1; f < F; ++f) {
+    if (!(row_den_[f] > 0.0)) continue;  // no pair came of age on this row
+    const double w = running_weight(blend_count_[f], kPredictionBlendFrames);
+    blend_num_[f] += w * (row_num_[f] - blend_num_[f]);
+    blend_den_[f] += w * (row_den_[f] - blend_den_[f]);
   }
   ++n_;
 }

@@ -74,6 +74,19 @@ inline constexpr int kPredictionGainFirstFrame = 2;
 inline constexpr double kPredictionNoiseFrames = 30.0;
 inline constexpr double kPredictionPowerFrames = 1.5;
 inline constexpr int kPredictionGainWarmRows = 20;
+// The gained displacement g of predicted frame f (f >= 1) is then combined with the
+// denoised frames' constant velocity, c = f times their mean step over the last
+// kPredictionBlendStepFrames frames: g + lambda (c - g), one lambda per path frame for the
+// whole hand, the least-squares weight of two forecasts (Bates and Granger), read from the
+// input's future as the gain's noise is: once the input of f frames later is in, y = x_now
+// - den_then, and lambda = E[(c - g) . (y - g)] / E|c - g|^2 (sums over the joints, means
+// over about kPredictionBlendFrames rows), held in [0, 1], fading in over
+// kPredictionGainWarmRows rows. The network's displacement falls behind a hand that
+// speeds up or turns; a still or shaking hand's velocity is its noise, whose forecast the
+// future does not confirm (lambda 0). Chosen on the tuning split (docs/STGAE.md
+// "Prediction blend").
+inline constexpr double kPredictionBlendFrames = 30.0;
+inline constexpr int kPredictionBlendStepFrames = 2;
 
 class CorrectionBound {
  public:
@@ -126,6 +139,12 @@ class CorrectionBound {
   std::vector<Eigen::Vector3d> applied_, den_;
   std::vector<double> pred_noise2_, pred_power2_;
   std::vector<int> pred_count_;
+  // Prediction blend: per ring frame, path frame and joint the gained displacement g and
+  // c - g (NaN: none); per path frame the running means of the hand's sums of (c - g) .
+  // (y - g) and |c - g|^2, and this row's sums.
+  std::vector<Eigen::Vector3d> gain_out_, cv_less_;
+  std::vector<double> blend_num_, blend_den_, row_num_, row_den_;
+  std::vector<int> blend_count_;
 
   // The rings' slot of the frame `back` frames ago (0 = now); every ring is indexed by it.
   size_t ring(long back) const noexcept { return static_cast<size_t>((n_ - back) % hist_); }
@@ -134,6 +153,9 @@ class CorrectionBound {
   // The displacement applied to path frame f (before its gain) and the denoised frame, `back` frames ago.
   Eigen::Vector3d& applied_back(long back, size_t f, size_t joint) noexcept;
   Eigen::Vector3d& den_back(long back, size_t joint) noexcept;
+  // The gained displacement of path frame f and the velocity forecast less it, `back` frames ago.
+  Eigen::Vector3d& gain_out_back(long back, size_t f, size_t joint) noexcept;
+  Eigen::Vector3d& cv_less_back(long back, size_t f, size_t joint) noexcept;
   // Takes correction c (joint j, a row that is no jump) into the running means and returns
   // E|n|^2 as they read it.
   double correlated_noise2(size_t j, const Eigen::Vector3d& c) noexcept;
@@ -142,6 +164,11 @@ class CorrectionBound {
   // (`evidence`: this row is no jump).
   Eigen::Vector3d gained(size_t f, size_t j, const Eigen::Vector3d& e, const Eigen::Vector3d& x_now,
                          bool evidence) noexcept;
+  // Gained displacement g of path frame f combined with the velocity forecast c (NaN: none)
+  // by the hand's blend weight, after adding what x_now says of the pair made f frames
+  // ago to this row's sums (`evidence`: this row is no jump).
+  Eigen::Vector3d blended(size_t f, size_t j, const Eigen::Vector3d& g, const Eigen::Vector3d& c,
+                          const Eigen::Vector3d& x_now, bool evidence) noexcept;
 };
 
 }  // namespace hs
