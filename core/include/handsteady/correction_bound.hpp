@@ -7,7 +7,8 @@
 // (read from the correction's own correlation over frames, and bounded by the noise
 // measured at the input rate where there is one); a predicted displacement is shrunk by
 // the share of it that the input's future has not been confirming (a Wiener gain per
-// joint and horizon). A clean still hand is answered exactly,
+// joint and horizon), then blended with the denoised frames' own velocity by the weight
+// the input's future gives the two forecasts. A clean still hand is answered exactly,
 // from the first frame on; a noisy hand leaves the network free. Per stream (frames one model
 // period apart), no allocation after construction, noexcept. docs/STGAE.md "Trust region".
 #include "handsteady/skeleton.hpp"
@@ -99,8 +100,9 @@ class CorrectionBound {
   // - denoised: less the network's mean offset, then pulled to within the radius of x;
   // - predicted frame f: the denoised one plus the network's predicted displacement less
   //   its mean excess over the displacement the input then made (measured f frames later),
-  //   scaled by its Wiener gain (f >= kPredictionGainFirstFrame), then held within reach
-  //   of constant velocity (x's last step) from the denoised one.
+  //   scaled by its Wiener gain (f >= kPredictionGainFirstFrame), blended with the
+  //   denoised frames' velocity (kPredictionBlendFrames), then held within reach of
+  //   constant velocity (x's last step) from the denoised one.
   // Joints missing in x are not bound.
   void apply(std::span<const float> x, std::span<float> path) noexcept { apply(x, path, {}, {}); }
   // The same with the input's noise measured at the input rate (InputNoise): E|n|^2 per
