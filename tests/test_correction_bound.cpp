@@ -40,6 +40,17 @@ double max_diff(const float* a, const float* b, size_t n) {
 
 using hs::test::jittered;
 
+// Frame f moved dx (m) along x.
+std::vector<float> moved_x(std::vector<float> f, double dx) {
+  for (size_t i = 0; i < kFs; i += 3) f[i] += static_cast<float>(dx);
+  return f;
+}
+// Frame f with white jitter on every coordinate.
+std::vector<float> jittered_frame(std::vector<float> f, std::mt19937_64& rng, std::normal_distribution<double>& noise) {
+  for (auto& v : f) v += static_cast<float>(noise(rng));
+  return f;
+}
+
 // One phase in [0, 2 pi) per coordinate.
 std::vector<double> random_phases(std::mt19937_64& rng) {
   std::uniform_real_distribution<double> phase(0.0, 2.0 * M_PI);
@@ -57,6 +68,10 @@ void add_drag(std::vector<float>& path, double t, const std::vector<double>& pha
 // The distance between the points whose xyz start at a and b (m).
 double joint_dist(const float* a, const float* b) {
   return (Eigen::Vector3d(a[0], a[1], a[2]) - Eigen::Vector3d(b[0], b[1], b[2])).norm();
+}
+// The distance of joint i / 3 of path frame f from the joint whose x is coordinate i of `at` (m).
+double frame_off(const std::vector<float>& path, size_t f, const std::vector<float>& at, size_t i) {
+  return joint_dist(path.data() + f * kFs + i, at.data() + i);
 }
 // The distance between two frames' joints whose x is coordinate i (m).
 double joint_dist(const std::vector<float>& a, const std::vector<float>& b, size_t i) {
@@ -309,15 +324,8 @@ TEST_CASE("predicted displacements the input's future does not confirm are taken
   for (int n = 0; n < kStill + 11; ++n) {
     const double t = n / kRate;
     const int moved = std::max(n - kStill, 0);
-    auto truth_at = [&](int ahead) {
-      auto x = clean;
-      const int m = n + ahead > kStill ? n + ahead - kStill : 0;
-      for (size_t i = 0; i < kFs; i += 3) x[i] += static_cast<float>(m * kStep);
-      return x;
-    };
-    const auto now = truth_at(0);
-    auto x = now;
-    for (auto& v : x) v += static_cast<float>(noise(rng));
+    auto truth_at = [&](int ahead) { return moved_x(clean, (n + ahead > kStill ? n + ahead - kStill : 0) * kStep); };
+    const auto x = jittered_frame(truth_at(0), rng, noise);
     std::vector<float> path(4 * kFs);
     for (size_t f = 0; f < 4; ++f) {
       const auto ahead = truth_at(static_cast<int>(f));
@@ -330,14 +338,12 @@ TEST_CASE("predicted displacements the input's future does not confirm are taken
     b.apply(x, path);
     for (size_t f = 1; f < 4; ++f) {
       const auto ahead = truth_at(static_cast<int>(f));
-      // Joint i / 3 of path frame f from where the hand then is (m).
-      const auto off = [&](const std::vector<float>& p, size_t i) { return joint_dist(p.data() + f * kFs + i, ahead.data() + i); };
       for (size_t i = 0; i < kFs; i += 3) {
         if (n >= kStill - 30 && n < kStill) {
-          err[f] += off(path, i) / (30.0 * kJointCount);
-          made[f] += off(network, i) / (30.0 * kJointCount);
+          err[f] += frame_off(path, f, ahead, i) / (30.0 * kJointCount);
+          made[f] += frame_off(network, f, ahead, i) / (30.0 * kJointCount);
         }
-        if (f == 2 && moved >= 3) moving_err += off(path, i) / (8.0 * kJointCount);
+        if (f == 2 && moved >= 3) moving_err += frame_off(path, f, ahead, i) / (8.0 * kJointCount);
       }
     }
   }
@@ -364,15 +370,9 @@ TEST_CASE("predictions that fall behind a moving hand take the denoised velocity
   constexpr int kStill = 90, kMoving = 180;
   std::array<double, 4> still_err{}, err{}, made{};  // per path frame (m)
   for (int n = 0; n < kStill + kMoving; ++n) {
-    auto truth_at = [&](int ahead) {
-      auto x = clean;
-      const double t = std::max(n + ahead - kStill, 0) / kRate;
-      for (size_t i = 0; i < kFs; i += 3) x[i] += static_cast<float>(0.04 * std::sin(M_PI * t));
-      return x;
-    };
+    auto truth_at = [&](int ahead) { return moved_x(clean, 0.04 * std::sin(M_PI * (std::max(n + ahead - kStill, 0) / kRate))); };
     const auto now = truth_at(0);
-    auto x = now;
-    for (auto& v : x) v += static_cast<float>(noise(rng));
+    const auto x = jittered_frame(now, rng, noise);
     std::vector<float> path(4 * kFs);
     for (size_t f = 0; f < 4; ++f) {
       const auto ahead = truth_at(static_cast<int>(f));
@@ -382,14 +382,12 @@ TEST_CASE("predictions that fall behind a moving hand take the denoised velocity
     b.apply(x, path);
     for (size_t f = 1; f < 4; ++f) {
       const auto ahead = truth_at(static_cast<int>(f));
-      // Joint i / 3 of path frame f from where the hand then is (m).
-      const auto off = [&](const std::vector<float>& p, size_t i) { return joint_dist(p.data() + f * kFs + i, ahead.data() + i); };
       for (size_t i = 0; i < kFs; i += 3) {
         // Still: how far the prediction strays from the denoised frame (the velocity forecast alone: ~0.5 mm a period).
-        if (n >= kStill - 30 - 3 && n < kStill - 3) still_err[f] += joint_dist(path.data() + f * kFs + i, path.data() + i) / (30.0 * kJointCount);
+        if (n >= kStill - 30 - 3 && n < kStill - 3) still_err[f] += frame_off(path, f, path, i) / (30.0 * kJointCount);
         if (n >= kStill + 60) {
-          err[f] += off(path, i) / ((kMoving - 60.0) * kJointCount);
-          made[f] += off(network, i) / ((kMoving - 60.0) * kJointCount);
+          err[f] += frame_off(path, f, ahead, i) / ((kMoving - 60.0) * kJointCount);
+          made[f] += frame_off(network, f, ahead, i) / ((kMoving - 60.0) * kJointCount);
         }
       }
     }
