@@ -105,18 +105,22 @@ const Eigen::Vector3d& CorrectionBound::corr_back(long back, size_t joint) const
   return corr_[ring(back) * kJointCount + joint];
 }
 
+size_t CorrectionBound::predicted_slot(long back, size_t f, size_t joint) const noexcept {
+  return (ring(back) * static_cast<size_t>(frames_ - 1) + f - 1) * kJointCount + joint;
+}
+
 Eigen::Vector3d& CorrectionBound::applied_back(long back, size_t f, size_t joint) noexcept {
-  return applied_[(ring(back) * static_cast<size_t>(frames_ - 1) + f - 1) * kJointCount + joint];
+  return applied_[predicted_slot(back, f, joint)];
 }
 
 Eigen::Vector3d& CorrectionBound::den_back(long back, size_t joint) noexcept { return den_[ring(back) * kJointCount + joint]; }
 
 Eigen::Vector3d& CorrectionBound::gain_out_back(long back, size_t f, size_t joint) noexcept {
-  return gain_out_[(ring(back) * static_cast<size_t>(frames_ - 1) + f - 1) * kJointCount + joint];
+  return gain_out_[predicted_slot(back, f, joint)];
 }
 
 Eigen::Vector3d& CorrectionBound::cv_less_back(long back, size_t f, size_t joint) noexcept {
-  return cv_less_[(ring(back) * static_cast<size_t>(frames_ - 1) + f - 1) * kJointCount + joint];
+  return cv_less_[predicted_slot(back, f, joint)];
 }
 
 double CorrectionBound::correlated_noise2(size_t j, const Eigen::Vector3d& c) noexcept {
@@ -129,18 +133,15 @@ double CorrectionBound::correlated_noise2(size_t j, const Eigen::Vector3d& c) no
   return std::max(0.0, corr2_[j] - std::min(corr_lag1_[j], corr_lag2_[j]));
 }
 
-Eigen::Vector3d CorrectionBound::gained(size_t f, size_t j, const Eigen::Vector3d& e, const Eigen::Vector3d& x_now,
-                                        bool evidence) noexcept {
+Eigen::Vector3d CorrectionBound::gained(size_t f, size_t j, const Eigen::Vector3d& e, const Eigen::Vector3d& went) noexcept {
   const size_t b = f * kJointCount + j;
   applied_back(0, f, j) = e;
   if (f < static_cast<size_t>(kPredictionGainFirstFrame)) return e;
-  const auto back = static_cast<long>(f);
-  if (evidence && n_ >= back) {  // the displacement made f frames ago, against where the input went since
-    const Eigen::Vector3d& e_then = applied_back(back, f, j);
-    const Eigen::Vector3d& den_then = den_back(back, j);
-    if (e_then.allFinite() && den_then.allFinite()) {
+  if (went.allFinite()) {  // the displacement made f frames ago (went is NaN before then), against where the input went since
+    const Eigen::Vector3d& e_then = applied_back(static_cast<long>(f), f, j);
+    if (e_then.allFinite()) {
       const double w = running_weight(pred_count_[b], kPredictionNoiseFrames);
-      pred_noise2_[b] += w * (e_then.squaredNorm() - e_then.dot(x_now - den_then) - pred_noise2_[b]);
+      pred_noise2_[b] += w * (e_then.squaredNorm() - e_then.dot(went) - pred_noise2_[b]);
     }
   }
   pred_power2_[b] += (1.0 / kPredictionPowerFrames) * (e.squaredNorm() - pred_power2_[b]);
@@ -151,17 +152,16 @@ Eigen::Vector3d CorrectionBound::gained(size_t f, size_t j, const Eigen::Vector3
 }
 
 Eigen::Vector3d CorrectionBound::blended(size_t f, size_t j, const Eigen::Vector3d& g, const Eigen::Vector3d& c,
-                                         const Eigen::Vector3d& x_now, bool evidence) noexcept {
+                                         const Eigen::Vector3d& went) noexcept {
   gain_out_back(0, f, j) = g;
   const Eigen::Vector3d q = c - g;
   cv_less_back(0, f, j) = q;
-  const auto back = static_cast<long>(f);
-  if (evidence && n_ >= back) {  // the pair made f frames ago, against where the input went since
+  if (went.allFinite()) {  // the pair made f frames ago (went is NaN before then), against where the input went since
+    const auto back = static_cast<long>(f);
     const Eigen::Vector3d& g_then = gain_out_back(back, f, j);
     const Eigen::Vector3d& q_then = cv_less_back(back, f, j);
-    const Eigen::Vector3d& den_then = den_back(back, j);
-    if (g_then.allFinite() && q_then.allFinite() && den_then.allFinite()) {
-      row_num_[f] += q_then.dot(x_now - den_then - g_then);
+    if (g_then.allFinite() && q_then.allFinite()) {
+      row_num_[f] += q_then.dot(went - g_then);
       row_den_[f] += q_then.squaredNorm();
     }
   }
@@ -253,8 +253,11 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std
       }
       const double fd = static_cast<double>(f);
       const double reach = s * (fd / std::sqrt(3.0) + 0.5 * fd * fd) + fd * a;
-      const Eigen::Vector3d g = gained(f, ju, disp - significant(bias_[b], spread_[b], bias_count_[b]), xn, evidence);
-      const Eigen::Vector3d e = blended(f, ju, g, fd * den_step, xn, evidence);
+      // Where the input went since the denoised frame f frames ago (NaN: no frame then, or
+      // this row is a jump): what the gain and the blend read their predictions against.
+      const Eigen::Vector3d went = evidence && n_ >= back ? Eigen::Vector3d(xn - den_back(back, ju)) : none();
+      const Eigen::Vector3d g = gained(f, ju, disp - significant(bias_[b], spread_[b], bias_count_[b]), went);
+      const Eigen::Vector3d e = blended(f, ju, g, fd * den_step, went);
       store(clamp_into(den + e, den + fd * v, reach), pf);
     }
   }

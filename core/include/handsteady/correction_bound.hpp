@@ -152,6 +152,8 @@ class CorrectionBound {
   size_t ring(long back) const noexcept { return static_cast<size_t>((n_ - back) % hist_); }
   const float* x_back(long back) const noexcept;  // the input `back` frames ago (0 = now)
   const Eigen::Vector3d& corr_back(long back, size_t joint) const noexcept;  // a correction `back` frames ago
+  // The index of path frame f's entry for a joint, `back` frames ago, in the rings kept per predicted frame.
+  size_t predicted_slot(long back, size_t f, size_t joint) const noexcept;
   // The displacement applied to path frame f (before its gain) and the denoised frame, `back` frames ago.
   Eigen::Vector3d& applied_back(long back, size_t f, size_t joint) noexcept;
   Eigen::Vector3d& den_back(long back, size_t joint) noexcept;
@@ -162,15 +164,14 @@ class CorrectionBound {
   // E|n|^2 as they read it.
   double correlated_noise2(size_t j, const Eigen::Vector3d& c) noexcept;
   // Displacement e of path frame f (index b = f * kJointCount + j) scaled by its Wiener
-  // gain, after taking in what the input x_now says of the one made f frames ago
-  // (`evidence`: this row is no jump).
-  Eigen::Vector3d gained(size_t f, size_t j, const Eigen::Vector3d& e, const Eigen::Vector3d& x_now,
-                         bool evidence) noexcept;
+  // gain, after taking in `went`, where the input went since the denoised frame f frames
+  // ago (NaN: no evidence on this row), against the displacement made then.
+  Eigen::Vector3d gained(size_t f, size_t j, const Eigen::Vector3d& e, const Eigen::Vector3d& went) noexcept;
   // Gained displacement g of path frame f combined with the velocity forecast c (NaN: none)
-  // by the hand's blend weight, after adding what x_now says of the pair made f frames
-  // ago to this row's sums (`evidence`: this row is no jump).
+  // by the hand's blend weight, after adding what `went` (as for gained) says of the pair
+  // made f frames ago to this row's sums.
   Eigen::Vector3d blended(size_t f, size_t j, const Eigen::Vector3d& g, const Eigen::Vector3d& c,
-                          const Eigen::Vector3d& x_now, bool evidence) noexcept;
+                          const Eigen::Vector3d& went) noexcept;
 };
 
 }  // namespace hs
