@@ -16,12 +16,13 @@ args = sys.argv[1:]
 if args[:1] == ['--cells']:
     if len(args) != 5:
         sys.exit('usage: benchmark_per_set.py --cells A.json LABEL_A B.json LABEL_B')
-    def cells(path, label):
-        c = {r['cell']: r for r in json.load(open(path))['results'] if r['block'] == 'noise' and r['method'] == label}
-        if not c:
+    def cells(path, label):  # (noise cells, the other blocks' cells) of one method, by cell
+        rows = [r for r in json.load(open(path))['results'] if r['method'] == label]
+        noise = {r['cell']: r for r in rows if r['block'] == 'noise'}
+        if not noise:
             sys.exit(f'{path}: no noise cells of method {label}')
-        return c
-    a, b = cells(args[1], args[2]), cells(args[3], args[4])
+        return noise, {r['cell']: r for r in rows if r['block'] != 'noise'}
+    (a, oa), (b, ob) = cells(args[1], args[2]), cells(args[3], args[4])
     if a.keys() != b.keys():
         sys.exit('the two runs have different noise cells')
     mean = lambda v: sum(v) / len(v)
@@ -46,9 +47,6 @@ if args[:1] == ['--cells']:
     for c in sorted(r50, key=r50.get):  # every noise cell's 50 ms change, best first
         print(f'  50 ms {100 * (r50[c] - 1):+.1f} %  {c}')
     # The other blocks (rates, hand shapes, recordings without truth), cell by cell at 50 ms.
-    other = lambda path, label: {r['cell']: r for r in json.load(open(path))['results']
-                                 if r['block'] != 'noise' and r['method'] == label}
-    oa, ob = other(args[1], args[2]), other(args[3], args[4])
     for c in sorted(oa.keys() & ob.keys()):
         x, y = oa[c]['h50ms']['mpjpe_mm'], ob[c]['h50ms']['mpjpe_mm']
         print(f'{c}: 50 ms {x:.3f} -> {y:.3f} ({100 * (y / x - 1):+.1f} %)')
