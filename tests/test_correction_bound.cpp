@@ -358,6 +358,49 @@ TEST_CASE("predicted displacements the input's future does not confirm are taken
   CHECK(moving_err < 0.003);
 }
 
+TEST_CASE("with the noise measured at the input rate, a still hand's shake is taken back one period ahead too") {
+  // 1 mm of white jitter, the noise measured (K >= 2 streams) or not (one stream). The
+  // network takes out half of the jitter and predicts a 10 Hz shake of 2 mm a period ahead.
+  // Its denoised frames' velocity is noise too, so the blend alone has no good forecast to
+  // weigh the shake against; where the noise is measured, the gain from frame 1 takes it
+  // back (one period ahead is then also the older stream's share of an answer now). One
+  // stream keeps frame 1 as predicted (kPredictionGainFirstFrame).
+  const auto clean = frame_of(hs::test::synthetic_hand());
+  const std::vector<double> noise2(kJointCount, 3 * 0.001 * 0.001), jump(kJointCount, 0.0);
+  std::array<double, 2> stray{}, made{};  // frame 1, last second, one stream / measured: from the denoised frame (m)
+  for (int measured = 0; measured < 2; ++measured) {
+    CorrectionBound b(4);
+    std::mt19937_64 rng(17);
+    std::normal_distribution<double> noise(0.0, 0.001);
+    const auto phase = random_phases(rng);
+    constexpr int kRows = 120;
+    for (int n = 0; n < kRows; ++n) {
+      const double t = n / 30.0;
+      const auto x = jittered_frame(clean, rng, noise);
+      std::vector<float> path(4 * kFs);
+      for (size_t f = 0; f < 4; ++f)
+        for (size_t i = 0; i < kFs; ++i) {
+          const double shake = 0.002 * static_cast<double>(f) * std::sin(2 * M_PI * 10.0 * t + phase[i]);
+          path[f * kFs + i] = clean[i] + 0.5f * (x[i] - clean[i]) + static_cast<float>(shake);
+        }
+      const auto network = path;
+      if (measured) b.apply(x, path, noise2, jump);
+      else b.apply(x, path);
+      if (n < kRows - 30) continue;
+      const auto m = static_cast<size_t>(measured);
+      for (size_t i = 0; i < kFs; i += 3) {
+        stray[m] += frame_off(path, 1, path, i) / (30.0 * kJointCount);
+        made[m] += frame_off(network, 1, network, i) / (30.0 * kJointCount);
+      }
+    }
+  }
+  MESSAGE("one period ahead, from the denoised frame: one stream " << stray[0] * 1e3 << " mm, the noise measured "
+                                                                   << stray[1] * 1e3 << " mm (the network's "
+                                                                   << made[1] * 1e3 << " mm)");
+  CHECK(stray[1] < 0.15 * made[1]);
+  CHECK(stray[1] < 0.6 * stray[0]);
+}
+
 TEST_CASE("predictions that fall behind a moving hand take the denoised velocity's share, a still hand's gets none") {
   // 30 Hz, 0.5 mm of white jitter. The network takes out half of the jitter and predicts
   // only 60 % of each displacement. For 3 s the hand is still (the denoised velocity is what is left of

@@ -133,10 +133,11 @@ double CorrectionBound::correlated_noise2(size_t j, const Eigen::Vector3d& c) no
   return std::max(0.0, corr2_[j] - std::min(corr_lag1_[j], corr_lag2_[j]));
 }
 
-Eigen::Vector3d CorrectionBound::gained(size_t f, size_t j, const Eigen::Vector3d& e, const Eigen::Vector3d& went) noexcept {
+Eigen::Vector3d CorrectionBound::gained(size_t f, size_t j, const Eigen::Vector3d& e, const Eigen::Vector3d& went,
+                                        size_t first) noexcept {
   const size_t b = f * kJointCount + j;
   applied_back(0, f, j) = e;
-  if (f < static_cast<size_t>(kPredictionGainFirstFrame)) return e;
+  if (f < first) return e;
   if (went.allFinite()) {  // the displacement made f frames ago (went is NaN before then), against where the input went since
     const Eigen::Vector3d& e_then = applied_back(static_cast<long>(f), f, j);
     if (e_then.allFinite()) {
@@ -173,6 +174,7 @@ Eigen::Vector3d CorrectionBound::blended(size_t f, size_t j, const Eigen::Vector
 void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std::span<const double> noise2,
                             std::span<const double> jump) noexcept {
   const bool measured = noise2.size() >= kJointCount && jump.size() >= kJointCount;
+  const auto gain_from = static_cast<size_t>(measured ? kPredictionGainFirstFrameMeasured : kPredictionGainFirstFrame);
   const auto F = static_cast<size_t>(frames_);
   if (x.size() < kFs || path.size() < kFs * F) return;
   // The ring's slot for this frame: the input, and the network's displacements.
@@ -256,7 +258,7 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std
       // Where the input went since the denoised frame f frames ago (NaN: no frame then, or
       // this row is a jump): what the gain and the blend read their predictions against.
       const Eigen::Vector3d went = evidence && n_ >= back ? Eigen::Vector3d(xn - den_back(back, ju)) : none();
-      const Eigen::Vector3d g = gained(f, ju, disp - significant(bias_[b], spread_[b], bias_count_[b]), went);
+      const Eigen::Vector3d g = gained(f, ju, disp - significant(bias_[b], spread_[b], bias_count_[b]), went, gain_from);
       const Eigen::Vector3d e = blended(f, ju, g, fd * den_step, went);
       store(clamp_into(den + e, den + fd * v, reach), pf);
     }

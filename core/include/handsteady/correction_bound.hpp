@@ -60,18 +60,21 @@ inline double explained_share(double mean2, double explained) noexcept {
 }
 inline constexpr double kCorrectionRoughnessFrames = 15.0;
 inline constexpr double kCorrectionBiasFrames = 30.0;
-// Predicted displacements (frame f, f >= kPredictionGainFirstFrame, joint j): e = d + v, d
-// what the hand will do, v what it will not (noise or tremor the network extrapolated, its
-// own error). Once the input of f frames later is in, |e_then|^2 - e_then . (x_now -
-// den_then) samples E|v|^2 (the input's own noise then is independent of e_then); its
-// running mean over kPredictionNoiseFrames frames is the displacement's noise, and e is
-// scaled by the Wiener gain 1 - E|v|^2 / P, P the mean of |e|^2 over the last
-// kPredictionPowerFrames frames (at least E|v|^2): a displacement well above its noise (a
-// hand setting off) is kept, one at the level of its noise (a still or shaking hand) taken
-// back towards the denoised frame. Fading in over kPredictionGainWarmRows samples. Frame
-// 1 is kept as predicted: one period ahead is also the older streams' share of an answer
-// at the input's own time. Chosen on the tuning split (docs/STGAE.md "Prediction gain").
-inline constexpr int kPredictionGainFirstFrame = 2;
+// Predicted displacements (frame f >= the first gained frame, joint j): e = d + v, d what
+// the hand will do, v what it will not (noise or tremor the network extrapolated, its own
+// error). Once the input of f frames later is in, |e_then|^2 - e_then . (x_now - den_then)
+// samples E|v|^2 (the input's own noise then is independent of e_then); its running mean
+// over kPredictionNoiseFrames frames is the displacement's noise, and e is scaled by the
+// Wiener gain 1 - E|v|^2 / P, P the mean of |e|^2 over the last kPredictionPowerFrames
+// frames (at least E|v|^2): a displacement well above its noise (a hand setting off) is
+// kept, one at the level of its noise (a still or shaking hand) taken back towards the
+// denoised frame. Fading in over kPredictionGainWarmRows samples. From frame 1 where the
+// noise is measured at the input rate (K >= 2 streams): one period ahead is also the older
+// stream's share of an answer at the input's own time, which gets steadier. One stream at
+// the model's rate keeps frame 1 as predicted (gaining it there lost FPHA's 50 ms rows).
+// Chosen on the tuning split (docs/STGAE.md "Prediction gain", "Frame 1 at K >= 2").
+inline constexpr int kPredictionGainFirstFrame = 2;          // one stream at the model's rate
+inline constexpr int kPredictionGainFirstFrameMeasured = 1;  // the noise measured at the input rate
 inline constexpr double kPredictionNoiseFrames = 30.0;
 inline constexpr double kPredictionPowerFrames = 1.5;
 inline constexpr int kPredictionGainWarmRows = 20;
@@ -100,7 +103,7 @@ class CorrectionBound {
   // - denoised: less the network's mean offset, then pulled to within the radius of x;
   // - predicted frame f: the denoised one plus the network's predicted displacement less
   //   its mean excess over the displacement the input then made (measured f frames later),
-  //   scaled by its Wiener gain (f >= kPredictionGainFirstFrame), blended with the
+  //   scaled by its Wiener gain (from kPredictionGainFirstFrame on), blended with the
   //   denoised frames' velocity (kPredictionBlendFrames), then held within reach of
   //   constant velocity (x's last step) from the denoised one.
   // Joints missing in x are not bound.
@@ -164,9 +167,11 @@ class CorrectionBound {
   // E|n|^2 as they read it.
   double correlated_noise2(size_t j, const Eigen::Vector3d& c) noexcept;
   // Displacement e of path frame f (index b = f * kJointCount + j) scaled by its Wiener
-  // gain, after taking in `went`, where the input went since the denoised frame f frames
-  // ago (NaN: no evidence on this row), against the displacement made then.
-  Eigen::Vector3d gained(size_t f, size_t j, const Eigen::Vector3d& e, const Eigen::Vector3d& went) noexcept;
+  // gain from frame `first` on, after taking in `went`, where the input went since the
+  // denoised frame f frames ago (NaN: no evidence on this row), against the displacement
+  // made then.
+  Eigen::Vector3d gained(size_t f, size_t j, const Eigen::Vector3d& e, const Eigen::Vector3d& went,
+                         size_t first) noexcept;
   // Gained displacement g of path frame f combined with the velocity forecast c (NaN: none)
   // by the hand's blend weight, after adding what `went` (as for gained) says of the pair
   // made f frames ago to this row's sums.
