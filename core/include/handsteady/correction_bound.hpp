@@ -72,7 +72,7 @@ inline constexpr double kCorrectionBiasFrames = 30.0;
 // noise is measured at the input rate (K >= 2 streams): one period ahead is also the older
 // stream's share of an answer at the input's own time, which gets steadier. One stream at
 // the model's rate keeps frame 1 as predicted (gaining it there lost FPHA's 50 ms rows).
-// Chosen on the tuning split (docs/STGAE.md "Prediction gain", "Frame 1 at K >= 2").
+// Chosen on the tuning split (docs/STGAE.md "Prediction gain", "Frame 1 at K >= 2 streams").
 inline constexpr int kPredictionGainFirstFrame = 2;          // one stream at the model's rate
 inline constexpr int kPredictionGainFirstFrameMeasured = 1;  // the noise measured at the input rate
 inline constexpr double kPredictionNoiseFrames = 30.0;
@@ -103,7 +103,8 @@ class CorrectionBound {
   // - denoised: less the network's mean offset, then pulled to within the radius of x;
   // - predicted frame f: the denoised one plus the network's predicted displacement less
   //   its mean excess over the displacement the input then made (measured f frames later),
-  //   scaled by its Wiener gain (from kPredictionGainFirstFrame on), blended with the
+  //   scaled by its Wiener gain (from kPredictionGainFirstFrame on; with the noise
+  //   measured, from kPredictionGainFirstFrameMeasured), blended with the
   //   denoised frames' velocity (kPredictionBlendFrames), then held within reach of
   //   constant velocity (x's last step) from the denoised one.
   // Joints missing in x are not bound.
