@@ -439,11 +439,14 @@ TEST_CASE("handsteady blend writes a model that loads and verifies, and refuses 
 
 TEST_CASE("the shipped causal, STGAE and DGN models are 0.3 x their base + 0.7 x their fine-tune (models/MODEL.md, models/base)") {
   const auto dir = std::filesystem::path(HS_FIXTURES) / ".." / ".." / "models";
+  // The causal model's steps since the evening of 2026-11-29 are the `_long_` pair (its base on the full
+  // schedule); `_base` / `_finetune` are the steps of the one shipped before.
   for (const std::string name : {"causal", "stgae", "dgn"}) {
     CAPTURE(name);
     const auto stem = "handsteady_xr26_" + name;
-    const auto base = hs::read_hsm_file(dir / "base" / (stem + "_base.hsm"));
-    const auto finetune = hs::read_hsm_file(dir / "base" / (stem + "_finetune.hsm"));
+    const auto steps = "handsteady_xr26_" + name + (name == "causal" ? "_long" : "");
+    const auto base = hs::read_hsm_file(dir / "base" / (steps + "_base.hsm"));
+    const auto finetune = hs::read_hsm_file(dir / "base" / (steps + "_finetune.hsm"));
     const auto shipped = hs::read_hsm_file(dir / (stem + ".hsm"));
     const auto blend = hs::blend_models(base, "base", finetune, "finetune", 0.7);
     REQUIRE(shipped.weights.tensors.size() == blend.weights.tensors.size());
@@ -453,7 +456,7 @@ TEST_CASE("the shipped causal, STGAE and DGN models are 0.3 x their base + 0.7 x
     }
     CHECK(nlohmann::json::parse(shipped.config.meta_json)["blend"]["alpha"] == 0.7);
     // Both steps are loadable models themselves (checksum and reference verified).
-    CHECK(hs::load_hsm(dir / "base" / (stem + "_base.hsm")));
-    CHECK(hs::load_hsm(dir / "base" / (stem + "_finetune.hsm")));
+    CHECK(hs::load_hsm(dir / "base" / (steps + "_base.hsm")));
+    CHECK(hs::load_hsm(dir / "base" / (steps + "_finetune.hsm")));
   }
 }
