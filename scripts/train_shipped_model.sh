@@ -5,8 +5,9 @@
 #      until 2026-11-29 the shortened models/configs/shipped_causal_xr26.json);
 #   2. its fine-tune on all recorded training data, BatchNorm statistics kept, taught the
 #      base model's motion ahead on FPHA (models/configs/finetune_distill_motion_xr26.json);
-#  stgae (models/handsteady_xr26_stgae.hsm, denoise only, about 25 min):
-#   1. the base model (models/configs/stgae_causal_xr26.json);
+#  stgae (models/handsteady_xr26_stgae.hsm, denoise only, about 70 min):
+#   1. the base model on the full schedule (models/configs/stgae_causal_long_xr26.json; until
+#      2026-11-30 the shortened models/configs/stgae_causal_xr26.json);
 #   2. its fine-tune on all recorded training data, BatchNorm statistics kept
 #      (models/configs/stgae_finetune_fixed_norm_xr26.json);
 #  dgn (models/handsteady_xr26_dgn.hsm, about 20 min):
@@ -32,7 +33,7 @@ ft_train="\"init\": \"$out/base.hsm\", \"teacher\": \"$out/base.hsm\""
 case "$name" in
   causal) base_cfg=causal_xr26.json; ft_cfg=finetune_distill_motion_xr26.json ;;
   dgn) base_cfg=dgn_causal_xr26.json; ft_cfg=dgn_finetune_distill_motion_xr26.json ;;
-  stgae) base_cfg=stgae_causal_xr26.json; ft_cfg=stgae_finetune_fixed_norm_xr26.json
+  stgae) base_cfg=stgae_causal_long_xr26.json; ft_cfg=stgae_finetune_fixed_norm_xr26.json
          ft_train="\"init\": \"$out/base.hsm\"" ;;
 esac
 scripts/deps.sh all

@@ -9,11 +9,14 @@
 
 #include <nlohmann/json.hpp>
 
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <fstream>
 #include <set>
 #include <sstream>
+#include <string>
+#include <utility>
 
 namespace {
 
@@ -439,12 +442,15 @@ TEST_CASE("handsteady blend writes a model that loads and verifies, and refuses 
 
 TEST_CASE("the shipped causal, STGAE and DGN models are 0.3 x their base + 0.7 x their fine-tune (models/MODEL.md, models/base)") {
   const auto dir = std::filesystem::path(HS_FIXTURES) / ".." / ".." / "models";
-  // The causal model's steps since the evening of 2026-11-29 are the `_long_` pair (its base on the full
-  // schedule); `_base` / `_finetune` are the steps of the one shipped before.
-  for (const std::string name : {"causal", "stgae", "dgn"}) {
+  // Each model's steps are named in models/MODEL.md's tables: since the evening of 2026-11-29 the causal
+  // model's are the `_long_` pair (its base on the full schedule), since 2026-11-30 STGAE's too; the other
+  // pairs in models/base are the steps of the models shipped before.
+  const std::array<std::pair<std::string, std::string>, 3> models{{{"causal", "_long"}, {"stgae", "_long"}, {"dgn", ""}}};
+  for (const auto& model : models) {
+    const auto& name = model.first;
     CAPTURE(name);
     const auto stem = "handsteady_xr26_" + name;
-    const auto steps = "handsteady_xr26_" + name + (name == "causal" ? "_long" : "");
+    const auto steps = stem + model.second;
     const auto base = hs::read_hsm_file(dir / "base" / (steps + "_base.hsm"));
     const auto finetune = hs::read_hsm_file(dir / "base" / (steps + "_finetune.hsm"));
     const auto shipped = hs::read_hsm_file(dir / (stem + ".hsm"));
