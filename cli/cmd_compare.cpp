@@ -14,6 +14,7 @@ struct CompareOptions {
   std::string truth;
   std::vector<std::string> inputs;  // label=path
   double horizon_ms = 0.0;
+  int mpjpe_digits = 2;  // more tell apart rows that round alike (models/MODEL.md)
 };
 
 void setup_compare(CLI::App& app) {
@@ -22,6 +23,9 @@ void setup_compare(CLI::App& app) {
   sub->add_option("--truth", opt->truth, "Clean track CSV")->required()->check(CLI::ExistingFile);
   sub->add_option("--in", opt->inputs, "LABEL=FILE.csv, repeatable")->required();
   sub->add_option("--horizon-ms", opt->horizon_ms, "Prediction horizon: output at t vs truth at t+H")
+      ->capture_default_str();
+  sub->add_option("--mpjpe-digits", opt->mpjpe_digits, "Decimals of the MPJPE column")
+      ->check(CLI::Range(0, 6))
       ->capture_default_str();
   sub->callback([opt] {
     const hs::Track truth = hs::read_track_csv(opt->truth);
@@ -33,8 +37,8 @@ void setup_compare(CLI::App& app) {
         throw std::runtime_error("--in expects LABEL=FILE.csv, got '" + spec + "'");
       const hs::Track est = hs::read_track_csv(spec.substr(eq + 1));
       const hs::Metrics m = hs::evaluate_tracks(truth, est, opt->horizon_ms / 1000.0);
-      fmt::print("| {} | {:.0f} | {:.2f} | {:.2f} | {:.3f} | {:.3f} | {:.3f} | {:.3f} | {:.1f} |\n", spec.substr(0, eq),
-                 opt->horizon_ms, m.mpjpe_mm, m.e_pos_mm2, m.e_bon_mm2, m.e_sym_mm2, m.accel_error_mm, m.jitter_mm,
+      fmt::print("| {} | {:.0f} | {:.{}f} | {:.2f} | {:.3f} | {:.3f} | {:.3f} | {:.3f} | {:.1f} |\n", spec.substr(0, eq),
+                 opt->horizon_ms, m.mpjpe_mm, opt->mpjpe_digits, m.e_pos_mm2, m.e_bon_mm2, m.e_sym_mm2, m.accel_error_mm, m.jitter_mm,
                  m.lag_ms);
     }
   });

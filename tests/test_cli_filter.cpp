@@ -1,12 +1,16 @@
 // `handsteady filter`: rows, timestamps and untracked rows preserved, causal output,
-// prediction horizon, metadata, and bad options rejected.
+// prediction horizon, metadata, and bad options rejected; `handsteady compare`'s MPJPE decimals.
 #include "handsteady/filters.hpp"
+#include "handsteady/metrics.hpp"
 #include "handsteady/track.hpp"
 
 #include "test_support.hpp"
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <string>
 
 namespace {
@@ -119,5 +123,29 @@ TEST_CASE("filter rejects bad options with a non-zero exit") {
   CHECK(hs::test::run_cli("filter --in " + quoted(dir / "missing.csv") + " --out " + quoted(dir / "o.csv") +
                           " 2>/dev/null") != 0);
   CHECK_FALSE(fs::exists(dir / "out.csv"));
+  fs::remove_all(dir);
+}
+
+TEST_CASE("compare prints the MPJPE column to the decimals asked for, two by default") {
+  const fs::path dir = hs::test::temp_dir("cli_compare_digits");
+  hs::write_track_csv(test_track(40), dir / "in.csv");
+  run_filter(dir / "in.csv", dir / "out.csv", "--method kalman");
+  const auto mpjpe = hs::evaluate_tracks(hs::read_track_csv(dir / "in.csv"), hs::read_track_csv(dir / "out.csv"), 0.0).mpjpe_mm;
+  const std::string cmd = "compare --truth " + quoted(dir / "in.csv") + " --in k=" + quoted(dir / "out.csv");
+  auto row = [&](const std::string& options) {
+    REQUIRE(hs::test::run_cli(cmd + options + " > " + quoted(dir / "table.md")) == 0);
+    std::ifstream in(dir / "table.md");
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+  };
+  auto cell = [&](int digits) {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "| k | 0 | %.*f |", digits, mpjpe);
+    return std::string(buf);
+  };
+  CHECK(row("").find(cell(2)) != std::string::npos);
+  CHECK(row(" --mpjpe-digits 4").find(cell(4)) != std::string::npos);
+  CHECK(hs::test::run_cli(cmd + " --mpjpe-digits 7 2>/dev/null") != 0);
   fs::remove_all(dir);
 }
