@@ -92,6 +92,60 @@ TEST_CASE("correction gain: a correction that adds its own error is taken back t
   CHECK(e.gained < 1.08 * e.input);
 }
 
+TEST_CASE("correction gain: correlated jitter's removal is kept where the measured noise explains it") {
+  // 80 ms AR(1) jitter of 1.5 mm per axis: the next three rows (33 ms at 90 Hz) carry most
+  // of it, so the check takes it for motion and the gain gives its removal back. With the
+  // input's noise measured per joint (what InputNoise's rigidity reading sees), the share
+  // it explains, times kGainNoiseShare, stays. A denoiser that adds an error of its own 3 times the noise is still
+  // taken back to near the input.
+  const auto truth = moving_hand(8.0);
+  constexpr double kSd = 0.0015;
+  const std::vector<double> noise2(kJointCount, 3.0 * kSd * kSd);
+  const auto feed = [&](CorrectionGain& g, bool measured, double own_error_sd) {
+    std::mt19937_64 rng(13);
+    std::normal_distribution<double> unit(0.0, 1.0), wrong(0.0, own_error_sd);
+    const double rho = std::exp(-1.0 / (kRate * 0.08));
+    hs::Pose ar = hs::Pose::Zero();
+    for (int j = 0; j < kJointCount; ++j)
+      for (int c = 0; c < 3; ++c) ar(j, c) = kSd * unit(rng);
+    Errors e;
+    size_t n = 0;
+    for (size_t i = 0; i < truth.size(); ++i) {
+      for (int j = 0; j < kJointCount; ++j)
+        for (int c = 0; c < 3; ++c) ar(j, c) = rho * ar(j, c) + kSd * std::sqrt(1.0 - rho * rho) * unit(rng);
+      const hs::Pose x = truth.pos[i] + ar;
+      const hs::Pose a = own_error_sd > 0.0 ? hs::test::jittered(x, rng, wrong) : truth.pos[i];
+      const auto xf = frame_of(x);
+      g.observe(truth.t[i], xf, std::span<const double>(a.data(), kFs),
+                measured ? std::span<const double>(noise2) : std::span<const double>{});
+      if (i < 200) continue;
+      for (int j = 0; j < kJointCount; ++j) {
+        const Eigen::Vector3d shift(g.shift(j, 0), g.shift(j, 1), g.shift(j, 2));
+        const Eigen::Vector3d tj = truth.pos[i].row(j).transpose();
+        e.input += 1e3 * (x.row(j).transpose() - tj).norm();
+        e.answer += 1e3 * (a.row(j).transpose() - tj).norm();
+        e.gained += 1e3 * (a.row(j).transpose() + shift - tj).norm();
+        ++n;
+      }
+    }
+    e.input /= static_cast<double>(n);
+    e.answer /= static_cast<double>(n);
+    e.gained /= static_cast<double>(n);
+    return e;
+  };
+  CorrectionGain plain, measured, wrong;
+  const Errors ep = feed(plain, false, 0.0), em = feed(measured, true, 0.0), ew = feed(wrong, true, 3.0 * kSd);
+  INFO("errors (input answer gained): unmeasured " << ep.input << " " << ep.answer << " " << ep.gained << "; measured "
+                                                   << em.gained << "; own error " << ew.input << " " << ew.answer << " "
+                                                   << ew.gained << "; gains " << plain.gain_fast() << " / "
+                                                   << plain.gain_low());
+  CHECK(ep.gained > 0.5 * ep.input);  // the check alone gives most of the removal back
+  // The measured noise keeps kGainNoiseShare of it (the gain takes the rest back).
+  CHECK(em.gained < (1.05 - hs::kGainNoiseShare) * em.input);
+  CHECK(ew.answer > 2.0 * ew.input);
+  CHECK(ew.gained < 1.25 * ew.input);
+}
+
 TEST_CASE("correction gain: an outlier taken back stays whole, nothing changes before the rows show the gain") {
   CorrectionGain g;
   const auto truth = moving_hand(6.0);

@@ -1,4 +1,5 @@
 #include "handsteady/correction_gain.hpp"
+#include "handsteady/correction_bound.hpp"
 #include "handsteady/time_series.hpp"
 
 #include <algorithm>
@@ -12,6 +13,8 @@ void CorrectionGain::reset() noexcept {
   s_fr_ = s_lr_ = s_ff_ = s_fl_ = s_ll_ = s_rows_ = 0.0;
   c2_ = c2_rows_ = 0.0;
   gain_fast_ = gain_low_ = 1.0;
+  joint_c2_.fill(0.0);
+  joint_c2_count_.fill(0);
 }
 
 void CorrectionGain::restart() noexcept {
@@ -39,7 +42,8 @@ void CorrectionGain::solve() noexcept {
   gain_low_ = gl;
 }
 
-void CorrectionGain::observe(double t, std::span<const float> x, std::span<const double> answer) noexcept {
+void CorrectionGain::observe(double t, std::span<const float> x, std::span<const double> answer,
+                             std::span<const double> noise2) noexcept {
   if (x.size() < kFs || answer.size() < kFs || !std::isfinite(t)) return;
   Row& row = rows_[static_cast<size_t>(n_ % kRing)];
   row.t = t;
@@ -62,6 +66,10 @@ void CorrectionGain::observe(double t, std::span<const float> x, std::span<const
     for (size_t k = 0; k < 3; ++k) {
       c[k] = answer[o + k] - static_cast<double>(row.x[o + k]);
       n2 += c[k] * c[k];
+    }
+    if (noise2.size() >= kJointCount) {
+      const size_t j = o / 3;
+      joint_c2_[j] += running_weight(joint_c2_count_[j], kGainNoiseRows) * (n2 - joint_c2_[j]);
     }
     c2_sum += std::min(n2, 4.0 * clip * clip);
     ++c2_n;
@@ -116,10 +124,15 @@ void CorrectionGain::observe(double t, std::span<const float> x, std::span<const
       }
     }
   }
-  for (size_t i = 0; i < kFs; ++i)
+  for (size_t i = 0; i < kFs; ++i) {
+    // What the gains take back, less the share the measured noise explains.
+    const double kept = noise2.size() >= kJointCount && noise2[i / 3] >= 0.0
+                            ? explained_share(joint_c2_[i / 3], kGainNoiseShare * noise2[i / 3])
+                            : 0.0;
     shift_[i] = std::isfinite(row.c[i])
-                    ? -(1.0 - gain_fast_) * (row.c[i] - row.low[i]) - (1.0 - gain_low_) * row.low[i]
+                    ? (1.0 - kept) * (-(1.0 - gain_fast_) * (row.c[i] - row.low[i]) - (1.0 - gain_low_) * row.low[i])
                     : 0.0;
+  }
   ++n_;
 }
 

@@ -74,8 +74,11 @@ class StgaeFilter final : public PoseFilter {
     if (!push_row(t, observed)) return true;  // hand lost in this frame
     if (gained_ && latest_ >= 0) {
       answer(t, ans_);
+      // The noise is measured at the input rate only where rows come between a stream's
+      // frames (K >= 2): one stream's rows are its frames (the trust region's `measured`).
       gain_.observe(t, std::span<const float>(cur_.data(), cur_.size()),
-                    std::span<const double>(ans_.data(), static_cast<size_t>(ans_.size())));
+                    std::span<const double>(ans_.data(), static_cast<size_t>(ans_.size())),
+                    phases_ >= 2 ? noise_.noise2() : std::span<const double>{});
     }
     return true;
   }

@@ -20,6 +20,13 @@
 // the hand's joints and the last ~kGainRows rows; the gains apply once kGainMinRows rows
 // have shown them (before, the answer is unchanged), are kept across tracking gaps (the
 // tracker stays the same) and forgotten by reset(). noexcept, no allocation.
+//
+// Where the input's noise is measured at the input rate (InputNoise, E|n|^2 per joint),
+// the share of a joint's correction that noise explains is kept whatever the gains say:
+// min(1, kGainNoiseShare * E|n|^2 / E|c|^2), E|c|^2 the correction's mean square over
+// about kGainNoiseRows rows. The check above takes correlated (80 ms) jitter for motion
+// and gave its removal back (the gain was worse than the network alone there); the
+// rigidity part of InputNoise sees that jitter, so its removal stays.
 // docs/STGAE.md "Correction gain".
 #include "handsteady/skeleton.hpp"
 
@@ -34,6 +41,8 @@ inline constexpr double kGainBandS = 0.03;      // time constant of the correcti
 inline constexpr double kGainClip = 3.0;        // corrections beyond this many RMS are scaled less
 inline constexpr double kGainClipFloorM = 1e-4; // the clip's least scale (a still hand corrects nothing)
 inline constexpr double kGainMaxSpanS = 0.2;    // a row's reference needs its 3 rows within this
+inline constexpr double kGainNoiseShare = 0.5;  // the measured noise's share of a correction kept (see above)
+inline constexpr double kGainNoiseRows = 30.0;  // rows in each joint's mean square correction
 
 class CorrectionGain {
  public:
@@ -44,8 +53,10 @@ class CorrectionGain {
   void restart() noexcept;
   // One input row at time t (increasing): the input x and the denoiser's answer for it
   // (3 * kJointCount each, joint-major xyz, NaN = missing). Updates the gains from the row
-  // three back, and the shift for answers made from this row.
-  void observe(double t, std::span<const float> x, std::span<const double> answer) noexcept;
+  // three back, and the shift for answers made from this row. noise2: the input's noise
+  // per joint (m^2, kJointCount; empty where it is not measured at the input rate).
+  void observe(double t, std::span<const float> x, std::span<const double> answer,
+               std::span<const double> noise2 = {}) noexcept;
   // What to add to coordinate c of joint j's answer at the last row: minus the part of its
   // correction the gains do not keep (0 where the joint was missing).
   double shift(int j, int c) const noexcept { return shift_[static_cast<size_t>(3 * j + c)]; }
@@ -74,6 +85,8 @@ class CorrectionGain {
   double s_rows_ = 0.0;             // running count of rows that contributed
   double c2_ = 0.0, c2_rows_ = 0.0; // running mean of |c|^2 per joint (the clip's scale)
   double gain_fast_ = 1.0, gain_low_ = 1.0;
+  std::array<double, kJointCount> joint_c2_{};  // each joint's mean square correction (noise2 given)
+  std::array<int, kJointCount> joint_c2_count_{};
   std::array<double, kFs> shift_{};
 };
 
