@@ -12,7 +12,9 @@
 
 #include <array>
 #include <cmath>
+#include <memory>
 #include <random>
+#include <span>
 #include <vector>
 
 namespace {
@@ -35,23 +37,22 @@ std::vector<float> frame_of(const hs::Pose& p) {
   return f;
 }
 
-// Feeds rows (truth + white noise of sd) with answers made by `denoise(truth, input)`;
-// returns the mean joint error (mm) of input, answer and answer + shift over the rows
-// after `skip`.
+// Feeds rows (truth + noise from `noisy(i, truth)`) with answers made by
+// `denoise(i, truth, input)`, and the measured noise `noise2` (empty: none); returns the mean
+// joint error (mm) of input, answer and answer + shift over the rows after `skip`.
 struct Errors {
   double input = 0.0, answer = 0.0, gained = 0.0;
 };
-template <class Denoise>
-Errors run(CorrectionGain& g, const hs::HandSeries& truth, double sd, Denoise denoise, size_t skip = 200) {
-  std::mt19937_64 rng(11);
-  std::normal_distribution<double> noise(0.0, sd);
+template <class Noisy, class Denoise>
+Errors feed(CorrectionGain& g, const hs::HandSeries& truth, Noisy noisy, Denoise denoise,
+            std::span<const double> noise2 = {}, size_t skip = 200) {
   Errors e;
   size_t n = 0;
   for (size_t i = 0; i < truth.size(); ++i) {
-    const hs::Pose x = hs::test::jittered(truth.pos[i], rng, noise);
+    const hs::Pose x = noisy(i, truth.pos[i]);
     const hs::Pose a = denoise(i, truth.pos[i], x);
     const auto xf = frame_of(x);
-    g.observe(truth.t[i], xf, std::span<const double>(a.data(), kFs));
+    g.observe(truth.t[i], xf, std::span<const double>(a.data(), kFs), noise2);
     if (i < skip) continue;
     for (int j = 0; j < kJointCount; ++j) {
       const Eigen::Vector3d shift(g.shift(j, 0), g.shift(j, 1), g.shift(j, 2));
@@ -66,6 +67,14 @@ Errors run(CorrectionGain& g, const hs::HandSeries& truth, double sd, Denoise de
   e.answer /= static_cast<double>(n);
   e.gained /= static_cast<double>(n);
   return e;
+}
+
+// The same with white noise of sd on every coordinate.
+template <class Denoise>
+Errors run(CorrectionGain& g, const hs::HandSeries& truth, double sd, Denoise denoise, size_t skip = 200) {
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> noise(0.0, sd);
+  return feed(g, truth, [&](size_t, const hs::Pose& t) { return hs::test::jittered(t, rng, noise); }, denoise, {}, skip);
 }
 }  // namespace
 
@@ -96,45 +105,32 @@ TEST_CASE("correction gain: correlated jitter's removal is kept where the measur
   // 80 ms AR(1) jitter of 1.5 mm per axis: the next three rows (33 ms at 90 Hz) carry most
   // of it, so the check takes it for motion and the gain gives its removal back. With the
   // input's noise measured per joint (what InputNoise's rigidity reading sees), the share
-  // it explains, times kGainNoiseShare, stays. A denoiser that adds an error of its own 3 times the noise is still
-  // taken back to near the input.
+  // it explains, times kGainNoiseShare, stays. A denoiser that adds an error of its own 3
+  // times the noise is still taken back to near the input.
   const auto truth = moving_hand(8.0);
   constexpr double kSd = 0.0015;
   const std::vector<double> noise2(kJointCount, 3.0 * kSd * kSd);
-  const auto feed = [&](CorrectionGain& g, bool measured, double own_error_sd) {
-    std::mt19937_64 rng(13);
-    std::normal_distribution<double> unit(0.0, 1.0), wrong(0.0, own_error_sd);
+  // The same AR(1) jitter (seed 13) for each run.
+  const auto correlated = [&] {
+    auto rng = std::make_shared<std::mt19937_64>(13);
     const double rho = std::exp(-1.0 / (kRate * 0.08));
-    hs::Pose ar = hs::Pose::Zero();
-    for (int j = 0; j < kJointCount; ++j)
-      for (int c = 0; c < 3; ++c) ar(j, c) = kSd * unit(rng);
-    Errors e;
-    size_t n = 0;
-    for (size_t i = 0; i < truth.size(); ++i) {
+    auto ar = std::make_shared<hs::Pose>(hs::Pose::Zero());
+    return [rng, rho, ar](size_t i, const hs::Pose& t) {
+      std::normal_distribution<double> unit(0.0, 1.0);
+      const double step = i == 0 ? 1.0 : std::sqrt(1.0 - rho * rho);
       for (int j = 0; j < kJointCount; ++j)
-        for (int c = 0; c < 3; ++c) ar(j, c) = rho * ar(j, c) + kSd * std::sqrt(1.0 - rho * rho) * unit(rng);
-      const hs::Pose x = truth.pos[i] + ar;
-      const hs::Pose a = own_error_sd > 0.0 ? hs::test::jittered(x, rng, wrong) : truth.pos[i];
-      const auto xf = frame_of(x);
-      g.observe(truth.t[i], xf, std::span<const double>(a.data(), kFs),
-                measured ? std::span<const double>(noise2) : std::span<const double>{});
-      if (i < 200) continue;
-      for (int j = 0; j < kJointCount; ++j) {
-        const Eigen::Vector3d shift(g.shift(j, 0), g.shift(j, 1), g.shift(j, 2));
-        const Eigen::Vector3d tj = truth.pos[i].row(j).transpose();
-        e.input += 1e3 * (x.row(j).transpose() - tj).norm();
-        e.answer += 1e3 * (a.row(j).transpose() - tj).norm();
-        e.gained += 1e3 * (a.row(j).transpose() + shift - tj).norm();
-        ++n;
-      }
-    }
-    e.input /= static_cast<double>(n);
-    e.answer /= static_cast<double>(n);
-    e.gained /= static_cast<double>(n);
-    return e;
+        for (int c = 0; c < 3; ++c) (*ar)(j, c) = (i == 0 ? 0.0 : rho * (*ar)(j, c)) + kSd * step * unit(*rng);
+      return hs::Pose(t + *ar);
+    };
   };
+  const auto exact = [](size_t, const hs::Pose& t, const hs::Pose&) { return t; };
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> own(0.0, 3.0 * kSd);
+  const auto adds_own = [&](size_t, const hs::Pose&, const hs::Pose& x) { return hs::test::jittered(x, rng, own); };
   CorrectionGain plain, measured, wrong;
-  const Errors ep = feed(plain, false, 0.0), em = feed(measured, true, 0.0), ew = feed(wrong, true, 3.0 * kSd);
+  const Errors ep = feed(plain, truth, correlated(), exact);
+  const Errors em = feed(measured, truth, correlated(), exact, noise2);
+  const Errors ew = feed(wrong, truth, correlated(), adds_own, noise2);
   INFO("errors (input answer gained): unmeasured " << ep.input << " " << ep.answer << " " << ep.gained << "; measured "
                                                    << em.gained << "; own error " << ew.input << " " << ew.answer << " "
                                                    << ew.gained << "; gains " << plain.gain_fast() << " / "
