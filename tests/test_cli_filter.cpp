@@ -9,8 +9,6 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
-#include <sstream>
 #include <string>
 
 namespace {
@@ -134,10 +132,7 @@ TEST_CASE("compare prints the MPJPE column to the decimals asked for, two by def
   const std::string cmd = "compare --truth " + quoted(dir / "in.csv") + " --in k=" + quoted(dir / "out.csv");
   auto row = [&](const std::string& options) {
     REQUIRE(hs::test::run_cli(cmd + options + " > " + quoted(dir / "table.md")) == 0);
-    std::ifstream in(dir / "table.md");
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
+    return hs::test::slurp(dir / "table.md");
   };
   auto cell = [&](int digits) {
     char buf[64];

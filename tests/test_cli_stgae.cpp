@@ -16,7 +16,6 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -122,12 +121,7 @@ hs::Track run_ok(const hs::Track& input, const fs::path& dir, const std::string&
   return hs::read_track_csv(dir / "out.csv");
 }
 
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+using hs::test::slurp;
 
 // Rows, times, hands and untracked rows as in the input; tracked rows fully finite
 // (except joints allowed NaN by `allow_nan_joint`) and within `max_dev_m` of the input.

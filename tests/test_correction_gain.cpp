@@ -12,7 +12,6 @@
 
 #include <array>
 #include <cmath>
-#include <memory>
 #include <random>
 #include <span>
 #include <vector>
@@ -110,27 +109,20 @@ TEST_CASE("correction gain: correlated jitter's removal is kept where the measur
   const auto truth = moving_hand(8.0);
   constexpr double kSd = 0.0015;
   const std::vector<double> noise2(kJointCount, 3.0 * kSd * kSd);
-  // The same AR(1) jitter (seed 13) for each run.
-  const auto correlated = [&] {
-    auto rng = std::make_shared<std::mt19937_64>(13);
-    const double rho = std::exp(-1.0 / (kRate * 0.08));
-    auto ar = std::make_shared<hs::Pose>(hs::Pose::Zero());
-    return [rng, rho, ar](size_t i, const hs::Pose& t) {
-      std::normal_distribution<double> unit(0.0, 1.0);
-      const double step = i == 0 ? 1.0 : std::sqrt(1.0 - rho * rho);
-      for (int j = 0; j < kJointCount; ++j)
-        for (int c = 0; c < 3; ++c) (*ar)(j, c) = (i == 0 ? 0.0 : rho * (*ar)(j, c)) + kSd * step * unit(*rng);
-      return hs::Pose(t + *ar);
-    };
-  };
+  // The project's correlated jitter (the benchmark's `correlated` family), the same for each run.
+  hs::CorruptionConfig jitter;
+  jitter.tracker.jitter_sd_m = kSd;
+  jitter.tracker.jitter_ar1 = std::exp(-1.0 / (kRate * 0.08));
+  const hs::HandSeries noisy_series = hs::corrupt_series(truth, jitter, 13);
+  const auto correlated = [&](size_t i, const hs::Pose&) { return noisy_series.pos[i]; };
   const auto exact = [](size_t, const hs::Pose& t, const hs::Pose&) { return t; };
   std::mt19937_64 rng(5);
   std::normal_distribution<double> own(0.0, 3.0 * kSd);
   const auto adds_own = [&](size_t, const hs::Pose&, const hs::Pose& x) { return hs::test::jittered(x, rng, own); };
   CorrectionGain plain, measured, wrong;
-  const Errors ep = feed(plain, truth, correlated(), exact);
-  const Errors em = feed(measured, truth, correlated(), exact, noise2);
-  const Errors ew = feed(wrong, truth, correlated(), adds_own, noise2);
+  const Errors ep = feed(plain, truth, correlated, exact);
+  const Errors em = feed(measured, truth, correlated, exact, noise2);
+  const Errors ew = feed(wrong, truth, correlated, adds_own, noise2);
   INFO("errors (input answer gained): unmeasured " << ep.input << " " << ep.answer << " " << ep.gained << "; measured "
                                                    << em.gained << "; own error " << ew.input << " " << ew.answer << " "
                                                    << ew.gained << "; gains " << plain.gain_fast() << " / "

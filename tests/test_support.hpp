@@ -6,8 +6,10 @@
 
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <mutex>
 #include <random>
+#include <sstream>
 #include <string>
 #include <system_error>
 #include <vector>
@@ -23,6 +25,14 @@ inline std::filesystem::path fixture(const std::string& name) { return std::file
 inline std::filesystem::path shared_data() {
   std::filesystem::path p(HS_SHARED_DATA);
   return std::filesystem::is_directory(p) ? p : std::filesystem::path{};
+}
+
+// A whole file's text ("" when it cannot be read).
+inline std::string slurp(const std::filesystem::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
 }
 
 // p with white noise added to every coordinate, joint-major (the draw order is part of
