@@ -34,7 +34,8 @@ struct BenchmarkOptions {
   bool no_default_model = false;
   bool quiet = false;  // no progress lines on stderr
   bool unbounded = false;  // also each model without its trust region
-  bool gain = false;       // also each model with its correction gain
+  bool gain = false;       // also each model with its correction gain at every rate
+  bool no_gain = false;    // also each model without it
   bool smoothed = false;   // also each model with its prediction smoothing
   bool palm_fit = false;   // also raw and tuned One Euro behind the palm fit, and each model without it
   bool tremor = false;     // also raw and tuned One Euro behind the palm fit and tremor canceller, each model with it
@@ -131,6 +132,7 @@ void run_benchmark(const BenchmarkOptions& o, const std::string& command) {
     add("", [](FilterConfig&) {});
     if (o.palm_fit) add("-nopalmfit", [](FilterConfig& v) { v.palm_fit = false; });
     if (o.gain) add("-gain", [](FilterConfig& v) { v.stgae.gain = true; });
+    if (o.no_gain) add("-nogain", [](FilterConfig& v) { v.stgae.gain = false; });
     if (o.smoothed) add("-smoothed", [](FilterConfig& v) { v.stgae.smooth = true; });
     if (o.unbounded) add("-unbounded", [](FilterConfig& v) { v.stgae.bounded = false; });
     if (o.tremor) add("-tremor", [](FilterConfig& v) { v.tremor_cancel = true; });
@@ -178,7 +180,10 @@ void setup_benchmark(CLI::App& app) {
                 "Also score raw and tuned One Euro behind the palm fit and the tremor canceller (raw-tremor, "
                 "oneeuro-tuned-tremor) and each model with the canceller (LABEL-tremor; docs/FILTERS.md \"Tremor canceller\")");
   sub->add_flag("--gain", o->gain,
-                "Also score each model with its correction gain (label LABEL-gain; docs/STGAE.md \"Correction gain\")");
+                "Also score each model with its correction gain at every input rate (label LABEL-gain; the default "
+                "applies it to input faster than the model; docs/STGAE.md \"Correction gain\")");
+  sub->add_flag("--no-gain", o->no_gain,
+                "Also score each model without its correction gain (label LABEL-nogain)");
   sub->add_flag("--unbounded", o->unbounded,
                 "Also score each model without its trust region (label LABEL-unbounded; docs/STGAE.md)");
   sub->add_flag("--smoothed", o->smoothed,

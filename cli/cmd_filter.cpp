@@ -47,7 +47,8 @@ struct FilterOptions {
   bool offline = false;
   int phases = 0;  // interleaved streams; 0 = input rate / model rate
   bool unbounded = false;  // the network's own answer, without the trust region
-  bool gain = false;       // keep only the share of the correction the input's next rows confirm
+  bool gain = false;       // the correction gain at every rate (correction_gain.hpp)
+  bool no_gain = false;    // ... at none (the default: where the noise is measured at the input rate)
   bool smooth_predictions = false; // predicted displacements smoothed over time
   bool palm_fit = false;     // fit the hand's rigid palm to each input row first (any method)
   bool no_palm_fit = false;  // ... not even for a network method (where it is the default)
@@ -67,7 +68,8 @@ FilterConfig filter_config(const FilterOptions& o) {
   c.max_gap_s = o.max_gap_ms * 1e-3;
   c.stgae.phases = o.phases;
   c.stgae.bounded = !o.unbounded;
-  c.stgae.gain = o.gain;
+  if (o.gain) c.stgae.gain = true;
+  if (o.no_gain) c.stgae.gain = false;
   c.stgae.smooth = o.smooth_predictions;
   c.stgae.offline = o.offline;
   if (o.palm_fit) c.palm_fit = true;
@@ -149,9 +151,11 @@ void run_filter(const FilterOptions& o) {
     throw InputError({"", 0, "--unbounded"}, "--unbounded is for --method stgae or dgn streaming");
   }
   // Options of the trust region's stages: a network streaming, with the trust region.
-  for (const auto& [set, flag] : {std::pair{o.gain, "--gain"}, std::pair{o.smooth_predictions, "--smooth-predictions"}})
+  for (const auto& [set, flag] : {std::pair{o.gain, "--gain"}, std::pair{o.no_gain, "--no-gain"},
+                                  std::pair{o.smooth_predictions, "--smooth-predictions"}})
     if (set && (!stgae || o.offline || o.unbounded))
       throw InputError({"", 0, flag}, fmt::format("{} is for --method stgae or dgn streaming, with the trust region", flag));
+  if (o.gain && o.no_gain) throw InputError({"", 0, "--gain"}, "--gain and --no-gain contradict");
   if (o.palm_fit && o.no_palm_fit) throw InputError({"", 0, "--palm-fit"}, "--palm-fit and --no-palm-fit contradict");
   if (o.palm_fit && o.offline) throw InputError({"", 0, "--palm-fit"}, "--palm-fit streams; --offline has none");
   if (o.tremor_cancel && o.offline)
@@ -218,9 +222,12 @@ void setup_filter(CLI::App& app) {
                 "Multi-STGAE: the network's own answer, without the trust region that holds it near its input "
                 "(docs/STGAE.md \"Trust region\"; for comparison)");
   sub->add_flag("--gain", o->gain,
-                "Multi-STGAE: keep only the share of the network's correction that the input's next rows confirm "
-                "(docs/STGAE.md \"Correction gain\"; better on noise and hands the network was not trained on, "
-                "worse on 4-6 Hz tremor)");
+                "Multi-STGAE: keep only the share of the network's correction that the input's next rows confirm at "
+                "every input rate (docs/STGAE.md \"Correction gain\"; the default does so only where the input's "
+                "noise is measured at its own rate, input faster than the model; at one stream it gives back the "
+                "removal of 4-6 Hz tremor)");
+  sub->add_flag("--no-gain", o->no_gain,
+                "Multi-STGAE: no correction gain at any rate (the default applies it to input faster than the model)");
   sub->add_flag("--smooth-predictions", o->smooth_predictions,
                 "Multi-STGAE: smooth each predicted frame's displacement over time (docs/STGAE.md \"Prediction "
                 "smoothing\"; ~40 % less jitter at --horizon-ms 50 for a few % more error)");

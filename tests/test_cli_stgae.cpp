@@ -266,6 +266,8 @@ TEST_CASE("stgae at 90 Hz (3 streams by default) with a zero-offset model: each 
   CHECK(out.meta("filter").value_or("").find("phases=auto unbounded") != std::string::npos);
   const hs::Track gained = run_ok(in, dir, "--method stgae --gain --model " + quoted(models().zero_causal));
   CHECK(gained.meta("filter").value_or("").find("phases=auto gain") != std::string::npos);
+  const hs::Track ungained = run_ok(in, dir, "--method stgae --no-gain --model " + quoted(models().zero_causal));
+  CHECK(ungained.meta("filter").value_or("").find("phases=auto no-gain") != std::string::npos);
   const hs::Track smooth = run_ok(in, dir, "--method stgae --smooth-predictions --model " + quoted(models().zero_causal));
   CHECK(smooth.meta("filter").value_or("").find("phases=auto smoothed") != std::string::npos);
   double max_err = 0.0;
@@ -406,6 +408,11 @@ TEST_CASE("stgae model errors: bad, missing or centred model files exit with sta
   CHECK(filter_cli(dir / "in.csv", dir / "out.csv",
                    "--method stgae --gain --unbounded --model " + quoted(models().random_causal), dir / "err.txt") == 2);
   CHECK(slurp(dir / "err.txt").find("--gain") != std::string::npos);
+  CHECK(filter_cli(dir / "in.csv", dir / "out.csv", "--method kalman --no-gain", dir / "err.txt") == 2);
+  CHECK(slurp(dir / "err.txt").find("--no-gain") != std::string::npos);
+  CHECK(filter_cli(dir / "in.csv", dir / "out.csv",
+                   "--method stgae --gain --no-gain --model " + quoted(models().random_causal), dir / "err.txt") == 2);
+  CHECK(slurp(dir / "err.txt").find("contradict") != std::string::npos);
   // --smooth-predictions: Multi-STGAE streaming with its trust region only.
   CHECK(filter_cli(dir / "in.csv", dir / "out.csv", "--method kalman --smooth-predictions", dir / "err.txt") == 2);
   CHECK(slurp(dir / "err.txt").find("--smooth-predictions") != std::string::npos);

@@ -319,9 +319,9 @@ TEST_CASE("configuration: HANDSTEADY_METHOD=dgn loads a DGN model, and a model o
   ::setenv("HANDSTEADY_CORRECTION_GAIN", "on", 1);
   hs::layer::LoadedConfig loaded = hs::layer::load_layer_config();
   ::unsetenv("HANDSTEADY_CORRECTION_GAIN");
-  CHECK(loaded.config.filter.stgae.gain);
+  CHECK(loaded.config.filter.stgae.gain == true);
   REQUIRE_FALSE(loaded.engine_messages.empty());
-  CHECK(loaded.engine_messages.back().text.find(", correction gain on") != std::string::npos);
+  CHECK(loaded.engine_messages.back().text.find(", correction gain on at every rate") != std::string::npos);
   CHECK(loaded.engine_messages.back().text.find("predictions smoothed") == std::string::npos);
   CHECK(loaded.config.filter.method == hs::FilterMethod::Dgn);
   REQUIRE(loaded.config.filter.stgae.model != nullptr);
@@ -487,44 +487,55 @@ TEST_CASE("configuration: tremor_cancel puts the tremor canceller in front of an
   std::filesystem::remove_all(dir);
 }
 
-TEST_CASE("configuration: prediction_smoothing and correction_gain switch the network's options, off by default, a bad value warns") {
+TEST_CASE("configuration: prediction_smoothing (off by default) and correction_gain (auto by default) set the network's options, a bad value warns") {
   auto parse = [](const std::string& text, std::vector<std::string>& warnings) {
     return hs::layer::parse_layer_config_json(text, "cfg.json", warnings);
   };
+  // Each option's state as a word: on, off, auto.
+  using State = std::string (*)(const hs::StgaeParams&);
   struct Case {
-    std::string key, env;
-    bool hs::StgaeParams::*field;
+    std::string key, env, fallback;  // fallback: the state by default
+    State state;
+    bool has_auto;
   };
-  for (const Case& k : {Case{"prediction_smoothing", "HANDSTEADY_PREDICTION_SMOOTHING", &hs::StgaeParams::smooth},
-                        Case{"correction_gain", "HANDSTEADY_CORRECTION_GAIN", &hs::StgaeParams::gain}}) {
+  const State smooth = [](const hs::StgaeParams& p) { return std::string(p.smooth ? "on" : "off"); };
+  const State gain = [](const hs::StgaeParams& p) { return std::string(!p.gain ? "auto" : *p.gain ? "on" : "off"); };
+  for (const Case& k : {Case{"prediction_smoothing", "HANDSTEADY_PREDICTION_SMOOTHING", "off", smooth, false},
+                        Case{"correction_gain", "HANDSTEADY_CORRECTION_GAIN", "auto", gain, true}}) {
     CAPTURE(k.key);
-    const auto on = [&](const std::string& value, std::vector<std::string>& w) {
-      return parse("{\"" + k.key + "\": " + value + "}", w).filter.stgae.*k.field;
+    const auto set = [&](const std::string& value, std::vector<std::string>& w) {
+      return k.state(parse("{\"" + k.key + "\": " + value + "}", w).filter.stgae);
     };
     std::vector<std::string> w;
-    CHECK_FALSE(parse("{}", w).filter.stgae.*k.field);
-    CHECK(on("true", w));
-    CHECK(on("\"on\"", w));
-    CHECK_FALSE(on("\"off\"", w));
+    CHECK(k.state(parse("{}", w).filter.stgae) == k.fallback);
+    CHECK(set("true", w) == "on");
+    CHECK(set("\"on\"", w) == "on");
+    CHECK(set("false", w) == "off");
+    CHECK(set("\"off\"", w) == "off");
     CHECK(w.empty());
-    CHECK_FALSE(on("\"lots\"", w));
+    if (k.has_auto) {
+      CHECK(set("\"auto\"", w) == "auto");
+      CHECK(w.empty());
+    }
+    CHECK(set("\"lots\"", w) == k.fallback);
     REQUIRE(w.size() == 1);
     CHECK(w[0].find("cfg.json: " + k.key) != std::string::npos);
     CHECK(w[0].find("lots") != std::string::npos);
-    (void)on("2", w);
+    (void)set("2", w);
     REQUIRE(w.size() == 2);
     CHECK(w[1].find("'" + k.key + "' must be") != std::string::npos);
-    // Each switch sets its own option only.
-    const auto both = parse("{\"" + k.key + "\": true}", w);
-    CHECK(both.filter.stgae.smooth + both.filter.stgae.gain == 1);
+    // Each key sets its own option only.
+    const auto only = parse("{\"" + k.key + "\": true}", w);
+    CHECK(smooth(only.filter.stgae) == (k.key == "prediction_smoothing" ? "on" : "off"));
+    CHECK(gain(only.filter.stgae) == (k.key == "correction_gain" ? "on" : "auto"));
     // The environment overrides the file; a bad value there keeps the file's.
     const auto dir = hs::test::temp_dir("layer_switch_config");
     const std::string file = R"({"method": "kalman", ")" + k.key + R"(": true})";
     hs::layer::LoadedConfig read = read_file_and_env(dir, file.c_str(), k.env.c_str(), "off");
-    CHECK_FALSE(read.config.filter.stgae.*k.field);
+    CHECK(k.state(read.config.filter.stgae) == "off");
     CHECK(read.warnings.empty());
     read = read_file_and_env(dir, file.c_str(), k.env.c_str(), "maybe");
-    CHECK(read.config.filter.stgae.*k.field);
+    CHECK(k.state(read.config.filter.stgae) == "on");
     REQUIRE(read.warnings.size() == 1);
     CHECK(read.warnings[0].find(k.env) != std::string::npos);
     std::filesystem::remove_all(dir);

@@ -145,7 +145,7 @@ TEST_CASE("prediction smoothing through the adapter: the shipped model's predict
   const auto noisy = hs::corrupt_series(truth, cfg, 5);
   constexpr int kAhead = 4;  // rows: the prediction at t_i + 4/90 s is scored against row i + 4
   const double horizon = kAhead / p.rate_hz;
-  auto smoothed = hs::make_stgae_filter(model, 0.0, 0, true, false, true);
+  auto smoothed = hs::make_stgae_filter(model, 0.0, 0, true, std::nullopt, true);
   auto rough = hs::make_stgae_filter(model, 0.0);
   const auto a = hs::filter_series(*smoothed, noisy, horizon);
   const auto b = hs::filter_series(*rough, noisy, horizon);
@@ -159,7 +159,7 @@ TEST_CASE("prediction smoothing through the adapter: the shipped model's predict
   CHECK(ja < 0.75 * jb);
   CHECK(ea < 1.1 * eb);
   // The denoised answers (H = 0) are not made worse.
-  auto s0 = hs::make_stgae_filter(model, 0.0, 0, true, false, true);
+  auto s0 = hs::make_stgae_filter(model, 0.0, 0, true, std::nullopt, true);
   auto r0 = hs::make_stgae_filter(model, 0.0);
   const double e0s = hs::mpjpe_mm(truth.pos, hs::filter_series(*s0, noisy, 0.0).pos);
   const double e0r = hs::mpjpe_mm(truth.pos, hs::filter_series(*r0, noisy, 0.0).pos);

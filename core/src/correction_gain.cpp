@@ -13,8 +13,9 @@ void CorrectionGain::reset() noexcept {
   s_fr_ = s_lr_ = s_ff_ = s_fl_ = s_ll_ = s_rows_ = 0.0;
   c2_ = c2_rows_ = 0.0;
   gain_fast_ = gain_low_ = 1.0;
-  joint_c2_.fill(0.0);
-  joint_c2_count_.fill(0);
+  joint_fast2_.fill(0.0);
+  joint_low2_.fill(0.0);
+  joint_count_.fill(0);
 }
 
 void CorrectionGain::restart() noexcept {
@@ -67,18 +68,23 @@ void CorrectionGain::observe(double t, std::span<const float> x, std::span<const
       c[k] = answer[o + k] - static_cast<double>(row.x[o + k]);
       n2 += c[k] * c[k];
     }
-    if (noise2.size() >= kJointCount) {
-      const size_t j = o / 3;
-      joint_c2_[j] += running_weight(joint_c2_count_[j], kGainNoiseRows) * (n2 - joint_c2_[j]);
-    }
     c2_sum += std::min(n2, 4.0 * clip * clip);
     ++c2_n;
     const double n = std::sqrt(n2);
     const double part = n <= clip ? 1.0 : std::max(0.0, 2.0 - n / clip);
+    double fast2 = 0.0, low2 = 0.0;
     for (size_t k = 0; k < 3; ++k) {
       c[k] *= part;
       low[k] = std::isfinite(low[k]) ? low[k] + a * (c[k] - low[k]) : c[k];
       row.low[o + k] = low[k];
+      fast2 += (c[k] - low[k]) * (c[k] - low[k]);
+      low2 += low[k] * low[k];
+    }
+    if (noise2.size() >= kJointCount) {
+      const size_t j = o / 3;
+      const double w = running_weight(joint_count_[j], kGainNoiseRows);
+      joint_fast2_[j] += w * (fast2 - joint_fast2_[j]);
+      joint_low2_[j] += w * (low2 - joint_low2_[j]);
     }
   }
   if (c2_n > 0) {
@@ -124,14 +130,17 @@ void CorrectionGain::observe(double t, std::span<const float> x, std::span<const
       }
     }
   }
-  for (size_t i = 0; i < kFs; ++i) {
-    // What the gains take back, less the share the measured noise explains.
-    const double kept = noise2.size() >= kJointCount && noise2[i / 3] >= 0.0
-                            ? explained_share(joint_c2_[i / 3], kGainNoiseShare * noise2[i / 3])
-                            : 0.0;
-    shift_[i] = std::isfinite(row.c[i])
-                    ? (1.0 - kept) * (-(1.0 - gain_fast_) * (row.c[i] - row.low[i]) - (1.0 - gain_low_) * row.low[i])
-                    : 0.0;
+  // What the gains take back of each band, less the share of it the measured noise explains.
+  const bool measured = noise2.size() >= kJointCount;
+  for (size_t o = 0; o < kFs; o += 3) {
+    const size_t j = o / 3;
+    const bool floor = measured && noise2[j] >= 0.0;
+    const double kept_fast = floor ? explained_share(joint_fast2_[j], kGainNoiseShare * noise2[j]) : 0.0;
+    const double kept_low = floor ? explained_share(joint_low2_[j], kGainNoiseShare * noise2[j]) : 0.0;
+    for (size_t i = o; i < o + 3; ++i)
+      shift_[i] = std::isfinite(row.c[i]) ? -(1.0 - kept_fast) * (1.0 - gain_fast_) * (row.c[i] - row.low[i]) -
+                                                (1.0 - kept_low) * (1.0 - gain_low_) * row.low[i]
+                                          : 0.0;
   }
   ++n_;
 }

@@ -426,7 +426,7 @@ std::string filter_params_summary(const FilterConfig& c) {
                          m.rate_hz, m.window, m.predict ? m.horizon : 0,
                          m.padding == StgaePadding::Causal ? "causal" : "centred",
                          p.offline ? "offline" : "streaming", p.phases == 0 ? std::string("auto") : std::to_string(p.phases),
-                         p.bounded ? "" : " unbounded", p.bounded && p.gain ? " gain" : "",
+                         p.bounded ? "" : " unbounded", p.bounded && p.gain ? (*p.gain ? " gain" : " no-gain") : "",
                          p.bounded && p.smooth && !p.offline ? " smoothed" : "") + rate_models_summary(p) + fit;
     }
   }

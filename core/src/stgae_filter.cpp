@@ -35,8 +35,9 @@ struct PhaseOutput {
 
 class StgaeFilter final : public PoseFilter {
  public:
-  StgaeFilter(std::shared_ptr<const StgaeModel> model, int phases, bool bounded, bool gain, bool smooth)
-      : model_(std::move(model)), fixed_phases_(phases), bounded_(bounded), gained_(bounded && gain),
+  StgaeFilter(std::shared_ptr<const StgaeModel> model, int phases, bool bounded, std::optional<bool> gain, bool smooth)
+      : model_(std::move(model)), fixed_phases_(phases), bounded_(bounded), gained_(bounded && gain != false),
+        gain_one_stream_(gain == true),
         smoothed_(bounded && smooth) {
     const auto& c = model_->config;
     n_ = c.joint_count();
@@ -61,6 +62,7 @@ class StgaeFilter final : public PoseFilter {
   void reset() noexcept override {
     restart_grid();
     gain_.reset();
+    gain_live_ = false;
     noise_.reset();
     intervals_.reset();
     mismatch_rows_ = 0;
@@ -72,16 +74,25 @@ class StgaeFilter final : public PoseFilter {
   bool push(double t, const Pose& observed) noexcept override {
     if (!is_next_time(t, last_t_)) return false;
     if (!push_row(t, observed)) return true;  // hand lost in this frame
-    if (gained_ && latest_ >= 0) {
+    if (gaining() && latest_ >= 0) {
       answer(t, ans_);
       // The noise is measured at the input rate only where rows come between a stream's
       // frames (K >= 2): one stream's rows are its frames (the trust region's `measured`).
       gain_.observe(t, std::span<const float>(cur_.data(), cur_.size()),
                     std::span<const double>(ans_.data(), static_cast<size_t>(ans_.size())),
                     phases_ >= 2 ? noise_.noise2() : std::span<const double>{});
+      gain_live_ = true;
+    } else if (gain_live_) {  // the gain left off (one stream, auto): nothing of it stays
+      gain_.restart();
+      gain_live_ = false;
     }
     return true;
   }
+
+  // Whether the correction gain acts now: where it is on, and in auto only where the
+  // noise is measured at the input rate (without that floor, at one stream it takes the
+  // network's removal of a slow tremor back as motion).
+  bool gaining() const noexcept { return gained_ && (gain_one_stream_ || phases_ >= 2); }
 
   // One accepted row into the streams; false when it has no joint.
   bool push_row(double t, const Pose& observed) noexcept {
@@ -139,7 +150,7 @@ class StgaeFilter final : public PoseFilter {
 
   void estimate(double t, Pose& out) const noexcept override {
     answer(t, out);
-    if (!gained_ || std::isnan(last_t_)) return;
+    if (!gaining() || std::isnan(last_t_)) return;
     // The correction gain is a denoiser's: its shift fades out over one model period ahead,
     // so predictions keep the network's path (the input's noise the shift lets through
     // made the 50 ms predictions jerkier: docs/STGAE.md "Correction gain").
@@ -395,7 +406,8 @@ class StgaeFilter final : public PoseFilter {
   std::array<PhaseOutput, kStgaeMaxPhases> out_;
   std::array<CorrectionBound, kStgaeMaxPhases> bounds_;  // one per stream: its frames are a period apart
   bool bounded_ = true;
-  bool gained_ = false;
+  bool gained_ = false, gain_one_stream_ = false;  // the gain on (in auto: at K >= 2), and at one stream too
+  bool gain_live_ = false;                         // the gain observed the last row
   bool smoothed_ = false;
   PredictionSmoother smoother_;  // one for all streams (smoothed_): their frames in time order
   CorrectionGain gain_;          // how much of the answer's correction to keep (gained_)
@@ -422,7 +434,7 @@ class StgaeFilter final : public PoseFilter {
 }  // namespace
 
 std::unique_ptr<PoseFilter> make_stgae_filter(std::shared_ptr<const StgaeModel> model, double horizon_s, int phases,
-                                              bool bounded, bool gain, bool smooth) {
+                                              bool bounded, std::optional<bool> gain, bool smooth) {
   if (!model || !model->net) throw std::invalid_argument("make_stgae_filter: no model");
   if (model->config.padding != StgaePadding::Causal)
     throw std::invalid_argument("make_stgae_filter: streaming needs a causal model (this one is centred)");

@@ -120,17 +120,16 @@ struct Applier {
     if (auto on = parse_on_off(v)) c.filter.tremor_cancel = *on;
     else warnings.push_back(where + ": unknown tremor canceller setting '" + v + "' (on, off)");
   }
-  // The network engine's on/off switches: prediction_smoothing, correction_gain.
-  struct Switch {
-    const char *key, *env, *what;
-    bool StgaeParams::*field;
-  };
-  static constexpr std::array<Switch, 2> kSwitches = {
-      Switch{"prediction_smoothing", "HANDSTEADY_PREDICTION_SMOOTHING", "prediction smoothing", &StgaeParams::smooth},
-      Switch{"correction_gain", "HANDSTEADY_CORRECTION_GAIN", "correction gain", &StgaeParams::gain}};
-  void switch_to(const Switch& s, const std::string& v, const std::string& where) {
-    if (auto on = parse_on_off(v)) c.filter.stgae.*s.field = *on;
-    else warnings.push_back(where + ": unknown " + s.what + " setting '" + v + "' (on, off)");
+  // The network engine's prediction smoothing: on or off.
+  void prediction_smoothing(const std::string& v, const std::string& where) {
+    if (auto on = parse_on_off(v)) c.filter.stgae.smooth = *on;
+    else warnings.push_back(where + ": unknown prediction smoothing setting '" + v + "' (on, off)");
+  }
+  // Its correction gain: auto (where the noise is measured at the input rate), on, off.
+  void correction_gain(const std::string& v, const std::string& where) {
+    if (auto on = parse_on_off(v)) c.filter.stgae.gain = *on;
+    else if (v == "auto") c.filter.stgae.gain.reset();
+    else warnings.push_back(where + ": unknown correction gain setting '" + v + "' (auto, on, off)");
   }
   void log_level(const std::string& v, const std::string& where) {
     if (auto l = parse_level(v)) c.log_level = *l;
@@ -201,12 +200,17 @@ void apply_json(std::string_view text, const std::string& where, Applier& a) {
     else if (j["tremor_cancel"].is_string()) a.tremor_cancel(j["tremor_cancel"].get<std::string>(), where + ": tremor_cancel");
     else a.warnings.push_back(where + ": 'tremor_cancel' must be true or false");
   }
-  for (const auto& sw : Applier::kSwitches) {
-    if (!j.contains(sw.key)) continue;
-    const auto& v = j[sw.key];
-    if (v.is_boolean()) a.c.filter.stgae.*sw.field = v.get<bool>();
-    else if (v.is_string()) a.switch_to(sw, v.get<std::string>(), where + ": " + sw.key);
-    else a.warnings.push_back(where + ": '" + sw.key + "' must be true or false");
+  if (j.contains("prediction_smoothing")) {
+    const auto& v = j["prediction_smoothing"];
+    if (v.is_boolean()) a.c.filter.stgae.smooth = v.get<bool>();
+    else if (v.is_string()) a.prediction_smoothing(v.get<std::string>(), where + ": prediction_smoothing");
+    else a.warnings.push_back(where + ": 'prediction_smoothing' must be true or false");
+  }
+  if (j.contains("correction_gain")) {
+    const auto& v = j["correction_gain"];
+    if (v.is_boolean()) a.c.filter.stgae.gain = v.get<bool>();
+    else if (v.is_string()) a.correction_gain(v.get<std::string>(), where + ": correction_gain");
+    else a.warnings.push_back(where + ": 'correction_gain' must be true, false or \"auto\"");
   }
   auto number = [&](const nlohmann::json& obj, const char* key, const std::string& at, auto&& apply) {
     if (!obj.contains(key)) return;
@@ -331,7 +335,8 @@ void resolve_engine(LayerConfig& c, std::vector<LogMessage>& messages) {
                                             (palm ? ", palm fit on" : ", palm fit off") +
                                             (c.filter.tremor_cancel ? ", tremor canceller on" : "") +
                                             (c.filter.stgae.smooth ? ", predictions smoothed" : "") +
-                                            (c.filter.stgae.gain ? ", correction gain on" : "")});
+                                            (!c.filter.stgae.gain ? "" : *c.filter.stgae.gain ? ", correction gain on at every rate"
+                                                                                 : ", correction gain off")});
   } catch (const std::exception& e) {
     messages.push_back({LogLevel::Error, "engine " + fallback + ": the " + net_name + " model " + file.string() +
                                              " cannot be used: " + e.what()});
@@ -416,8 +421,8 @@ LoadedConfig read_layer_config() {
   }
   if (auto v = env("HANDSTEADY_PALM_FIT")) a.palm_fit(*v, "HANDSTEADY_PALM_FIT");
   if (auto v = env("HANDSTEADY_TREMOR_CANCEL")) a.tremor_cancel(*v, "HANDSTEADY_TREMOR_CANCEL");
-  for (const auto& sw : Applier::kSwitches)
-    if (auto v = env(sw.env)) a.switch_to(sw, *v, sw.env);
+  if (auto v = env("HANDSTEADY_PREDICTION_SMOOTHING")) a.prediction_smoothing(*v, "HANDSTEADY_PREDICTION_SMOOTHING");
+  if (auto v = env("HANDSTEADY_CORRECTION_GAIN")) a.correction_gain(*v, "HANDSTEADY_CORRECTION_GAIN");
   if (auto v = env("HANDSTEADY_LOG")) a.log_level(*v, "HANDSTEADY_LOG");
   if (auto v = env("HANDSTEADY_RECORD")) c.record_dir = *v;
   if (auto v = env("HANDSTEADY_WORKER")) a.worker(*v, "HANDSTEADY_WORKER");

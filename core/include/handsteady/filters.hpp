@@ -99,8 +99,11 @@ struct StgaeParams {
   std::vector<std::shared_ptr<const StgaeModel>> rate_models;
   int phases = 0;      // interleaved streams; 0 = input rate / model rate (stgae_filter.hpp)
   bool bounded = true; // false: the network's own answer, without the trust region
-  bool gain = false;    // with bounded: keep only the share of the correction the input's next rows confirm
-                        // (correction_gain.hpp; opt-in: it gives up the network's tremor removal)
+  // With bounded: keep only the share of the correction the input's next rows confirm
+  // (correction_gain.hpp). Unset (auto): where the noise is measured at the input rate (K >=
+  // 2 streams); true: at every rate (at one stream it gives up the removal of a slow
+  // tremor); false: never.
+  std::optional<bool> gain;
   bool smooth = false;  // with bounded: predicted displacements smoothed over time (prediction_smoothing.hpp;
                         // opt-in: ~40 % less jitter in the predictions for a few % more error)
   bool offline = false;

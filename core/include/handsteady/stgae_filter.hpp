@@ -7,6 +7,7 @@
 #include "handsteady/stgae_model.hpp"
 
 #include <memory>
+#include <optional>
 
 namespace hs {
 
@@ -23,13 +24,17 @@ namespace hs {
 // for more than kModelResetGapS resets the streams. `bounded`: each stream's output is held
 // within the trust region of its input (correction_bound.hpp); false = the network's raw
 // answer (for comparison). `gain` (with bounded): the answers keep only the share of their
-// correction that the input's next rows confirm (correction_gain.hpp, fading out over one
-// model period ahead). `smooth` (with bounded): the predicted frames' displacements are
+// correction that the input's next rows confirm, less the share the measured noise explains
+// (correction_gain.hpp, fading out over one model period ahead); unset (auto) where the
+// noise is measured at the input rate (K >= 2 streams), true at every rate, false never.
+// At one stream it would take the network's removal of a slow tremor back (docs/STGAE.md
+// "Correction gain"). `smooth` (with bounded): the predicted frames' displacements are
 // smoothed over time (prediction_smoothing.hpp); false = each frame's own. Throws
 // std::invalid_argument for a centred model, a negative horizon or phases outside 0..kStgaeMaxPhases.
 inline constexpr int kStgaeMaxPhases = 4;
 std::unique_ptr<PoseFilter> make_stgae_filter(std::shared_ptr<const StgaeModel> model, double horizon_s,
-                                              int phases = 0, bool bounded = true, bool gain = false,
+                                              int phases = 0, bool bounded = true,
+                                              std::optional<bool> gain = std::nullopt,
                                               bool smooth = false);
 
 }  // namespace hs
