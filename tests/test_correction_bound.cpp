@@ -78,9 +78,6 @@ double joint_dist(const std::vector<float>& a, const std::vector<float>& b, size
   return joint_dist(a.data() + i, b.data() + i);
 }
 
-std::shared_ptr<const hs::StgaeModel> shipped_model() {
-  return hs::load_hsm(std::filesystem::path(HS_FIXTURES) / ".." / ".." / "models" / "handsteady_xr26_causal.hsm");
-}
 }  // namespace
 
 TEST_CASE("a clean still hand is answered exactly, predictions included, from the first frame") {
@@ -471,7 +468,7 @@ TEST_CASE("clean motion at constant velocity: predictions are pulled onto the in
 }
 
 TEST_CASE("the shipped model holds a still hand of any proportion still, from start and after a gap") {
-  const auto model = shipped_model();
+  const auto model = hs::test::shipped_model();
   for (const double scale : {0.8, 1.0, 1.25})
     for (const double rate : {20.0, 30.0, 90.0})
       for (const double horizon : {0.0, 0.05}) {
@@ -504,7 +501,7 @@ TEST_CASE("the shipped model holds a still hand of any proportion still, from st
 
 TEST_CASE("the shipped model's mean answer on a still hand with tracker jitter is the hand") {
   // Noise lets the network correct; its learnt offset for an unfamiliar hand must not stay.
-  const auto model = shipped_model();
+  const auto model = hs::test::shipped_model();
   for (const double scale : {0.8, 1.0, 1.25})
     for (const double rate : {30.0, 90.0}) {
       CAPTURE(scale);

@@ -34,10 +34,6 @@ hs::HandSeries moving_hand(double seconds, double rate = kRate) {
   return hs::synth_motion(p, hs::Hand::Right, 7);
 }
 
-// The shipped Multi-STGAE model.
-std::shared_ptr<const hs::StgaeModel> shipped_model() {
-  return hs::load_hsm(std::filesystem::path(HS_FIXTURES) / ".." / ".." / "models" / "handsteady_xr26_causal.hsm");
-}
 
 // 8-12 Hz tremor of 1.5 mm (the hand) and 0.75 mm (the fingers) on `truth`: a noise the
 // shipped model over-corrects.
@@ -219,7 +215,7 @@ TEST_CASE("correction gain: missing joints are not shifted, restart keeps the ga
 }
 
 TEST_CASE("correction gain through the adapter: the shipped model on 8-12 Hz tremor at 90 Hz, most of its harm taken back") {
-  const auto model = shipped_model();
+  const auto model = hs::test::shipped_model();
   const auto truth = moving_hand(20.0);
   const auto noisy = tremor_8_12(truth);
   auto bounded = hs::make_stgae_filter(model, 0.0, 0, true, false);
@@ -248,7 +244,7 @@ TEST_CASE("correction gain through the adapter: auto is the gain where the noise
   // stream), and `on` and `off` differ at both rates, so the comparison can fail. The streams
   // are fixed (with them found from the input rate, auto starts its gain once the rate is
   // known, after the first rows, and `on` already in them).
-  const auto model = shipped_model();
+  const auto model = hs::test::shipped_model();
   for (const double rate : {90.0, 30.0}) {
     const auto truth = moving_hand(6.0, rate);
     const auto noisy = tremor_8_12(truth);

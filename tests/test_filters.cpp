@@ -559,7 +559,7 @@ TEST_CASE("push and estimate never allocate") {
 }
 
 TEST_CASE("Multi-STGAE is one more method of the same config: make_filter and filter_series_with build it, refuse what cannot run") {
-  const auto dir = std::filesystem::path(HS_FIXTURES) / ".." / ".." / "models";
+  const auto dir = hs::test::models_dir();
   FilterConfig c = config(FilterMethod::Stgae);
   CHECK_THROWS_AS(hs::make_filter(c), std::invalid_argument);  // no model
   c.stgae.model = hs::load_hsm(dir / "handsteady_xr26_causal.hsm");

@@ -213,7 +213,7 @@ TEST_CASE("PoseFilter adapter: at 90 Hz a clean hand writing fast is answered ne
   // The trust region measured noise from the 30 Hz stream's second differences, which this
   // motion fills (the network was then free to move a clean hand by millimetres); measured
   // at the input rate it is near zero, and the answer stays at the input.
-  const auto model = hs::load_hsm(std::filesystem::path(HS_FIXTURES) / ".." / ".." / "models" / "handsteady_xr26_causal.hsm");
+  const auto model = hs::test::shipped_model();
   std::mt19937_64 rng(5);
   const auto times = irregular_times(4.0, rng);
   auto bounded = hs::make_stgae_filter(model, 0.0, 0, true), free = hs::make_stgae_filter(model, 0.0, 0, false);

@@ -133,8 +133,7 @@ TEST_CASE("prediction smoothing: a missing joint stays missing and starts afresh
 }
 
 TEST_CASE("prediction smoothing through the adapter: the shipped model's predictions on a noisy moving hand") {
-  const auto model =
-      hs::load_hsm(std::filesystem::path(HS_FIXTURES) / ".." / ".." / "models" / "handsteady_xr26_causal.hsm");
+  const auto model = hs::test::shipped_model();
   hs::SynthMotionParams p;
   p.duration_s = 12.0;
   p.rate_hz = 90.0;

@@ -317,7 +317,7 @@ TEST_CASE("weights checks: missing, unexpected, wrong shape, negative variance")
 }
 
 TEST_CASE("the models shipped in models/ load (checksum and reference pair verified) with their card's configuration") {
-  const auto dir = std::filesystem::path(HS_FIXTURES) / ".." / ".." / "models";
+  const auto dir = hs::test::models_dir();
   // The causal model the layer and the CLI use by default (models/MODEL.md).
   const auto causal = hs::load_hsm(dir / "handsteady_xr26_causal.hsm");
   CHECK(causal->config.padding == hs::StgaePadding::Causal);
@@ -441,7 +441,7 @@ TEST_CASE("handsteady blend writes a model that loads and verifies, and refuses 
 }
 
 TEST_CASE("the shipped causal, STGAE and DGN models are 0.3 x their base + 0.7 x their fine-tune (models/MODEL.md, models/base)") {
-  const auto dir = std::filesystem::path(HS_FIXTURES) / ".." / ".." / "models";
+  const auto dir = hs::test::models_dir();
   // Each model's steps are named in models/MODEL.md's tables: since the evening of 2026-11-29 the causal
   // model's are the `_long_` pair (its base on the full schedule), since 2026-11-30 STGAE's too; the other
   // pairs in models/base are the steps of the models shipped before.

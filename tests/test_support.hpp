@@ -2,11 +2,13 @@
 // Helpers shared by the tests: where fixtures and the optional recorded data live.
 #include <doctest/doctest.h>
 
+#include "handsteady/stgae_model.hpp"
 #include "handsteady/track.hpp"
 
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <mutex>
 #include <random>
 #include <sstream>
@@ -20,6 +22,10 @@
 namespace hs::test {
 
 inline std::filesystem::path fixture(const std::string& name) { return std::filesystem::path(HS_FIXTURES) / name; }
+
+// The repository's models/ folder, and the shipped Multi-STGAE model in it.
+inline std::filesystem::path models_dir() { return std::filesystem::path(HS_FIXTURES) / ".." / ".." / "models"; }
+inline std::shared_ptr<const StgaeModel> shipped_model() { return load_hsm(models_dir() / "handsteady_xr26_causal.hsm"); }
 
 // ../shared/data, or empty when absent (tests then skip with a message).
 inline std::filesystem::path shared_data() {

@@ -223,7 +223,7 @@ TEST_CASE("the shipped model on a still hand of other proportions: no jump at st
       still.rows.push_back({i / 90.0, h, p});
     }
   const TrackFiles f = make_tracks_from("stgae_still", still, 0.0);
-  const auto model = std::filesystem::path(HS_FIXTURES) / ".." / ".." / "models" / "handsteady_xr26_causal.hsm";
+  const auto model = hs::test::models_dir() / "handsteady_xr26_causal.hsm";
   const auto replay_clean = [&] {
     reset_env(f);
     set_env("HANDSTEADY_SHIM_TRACK", f.clean_csv.string());  // the tracker preset would add jumps
