@@ -19,6 +19,7 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <vector>
 
@@ -36,8 +37,7 @@ struct PhaseOutput {
 class StgaeFilter final : public PoseFilter {
  public:
   StgaeFilter(std::shared_ptr<const StgaeModel> model, int phases, bool bounded, std::optional<bool> gain, bool smooth)
-      : model_(std::move(model)), fixed_phases_(phases), bounded_(bounded), gained_(bounded && gain != false),
-        gain_one_stream_(gain == true),
+      : model_(std::move(model)), fixed_phases_(phases), bounded_(bounded), gain_mode_(gain),
         smoothed_(bounded && smooth) {
     const auto& c = model_->config;
     n_ = c.joint_count();
@@ -62,7 +62,6 @@ class StgaeFilter final : public PoseFilter {
   void reset() noexcept override {
     restart_grid();
     gain_.reset();
-    gain_live_ = false;
     noise_.reset();
     intervals_.reset();
     mismatch_rows_ = 0;
@@ -81,18 +80,17 @@ class StgaeFilter final : public PoseFilter {
       gain_.observe(t, std::span<const float>(cur_.data(), cur_.size()),
                     std::span<const double>(ans_.data(), static_cast<size_t>(ans_.size())),
                     phases_ >= 2 ? noise_.noise2() : std::span<const double>{});
-      gain_live_ = true;
-    } else if (gain_live_) {  // the gain left off (one stream, auto): nothing of it stays
-      gain_.restart();
-      gain_live_ = false;
     }
     return true;
   }
 
-  // Whether the correction gain acts now: where it is on, and in auto only where the
-  // noise is measured at the input rate (without that floor, at one stream it takes the
-  // network's removal of a slow tremor back as motion).
-  bool gaining() const noexcept { return gained_ && (gain_one_stream_ || phases_ >= 2); }
+  // Whether the correction gain acts now (with the trust region): where it is on, and in
+  // auto only where the noise is measured at the input rate (without that floor, at one
+  // stream it takes the network's removal of a slow tremor back as motion). The streams
+  // only fall to one through restart_grid, which restarts the gain.
+  bool gaining() const noexcept {
+    return bounded_ && gain_mode_ != false && (gain_mode_ == true || phases_ >= 2);
+  }
 
   // One accepted row into the streams; false when it has no joint.
   bool push_row(double t, const Pose& observed) noexcept {
@@ -406,11 +404,10 @@ class StgaeFilter final : public PoseFilter {
   std::array<PhaseOutput, kStgaeMaxPhases> out_;
   std::array<CorrectionBound, kStgaeMaxPhases> bounds_;  // one per stream: its frames are a period apart
   bool bounded_ = true;
-  bool gained_ = false, gain_one_stream_ = false;  // the gain on (in auto: at K >= 2), and at one stream too
-  bool gain_live_ = false;                         // the gain observed the last row
+  std::optional<bool> gain_mode_;  // the correction gain: unset = auto (K >= 2), true = at every rate, false = off
   bool smoothed_ = false;
   PredictionSmoother smoother_;  // one for all streams (smoothed_): their frames in time order
-  CorrectionGain gain_;          // how much of the answer's correction to keep (gained_)
+  CorrectionGain gain_;          // how much of the answer's correction to keep (gaining())
   InputNoise noise_;             // the input's noise at the input rate, for the trust region
   std::array<double, kJointCount> older_w_{};       // the older stream's weight per joint
   std::array<double, kJointCount> disagree2_{};     // mean squared disagreement of the two newest streams, m^2
