@@ -190,28 +190,20 @@ void apply_json(std::string_view text, const std::string& where, Applier& a) {
     else a.warnings.push_back(where + ": 'stgae_phases' must be a number");
   }
   if (auto v = str("worker")) a.worker(*v, where + ": worker");
-  if (j.contains("palm_fit")) {
-    if (j["palm_fit"].is_boolean()) a.c.filter.palm_fit = j["palm_fit"].get<bool>();
-    else if (j["palm_fit"].is_string()) a.palm_fit(j["palm_fit"].get<std::string>(), where + ": palm_fit");
-    else a.warnings.push_back(where + ": 'palm_fit' must be true, false or \"auto\"");
-  }
-  if (j.contains("tremor_cancel")) {
-    if (j["tremor_cancel"].is_boolean()) a.c.filter.tremor_cancel = j["tremor_cancel"].get<bool>();
-    else if (j["tremor_cancel"].is_string()) a.tremor_cancel(j["tremor_cancel"].get<std::string>(), where + ": tremor_cancel");
-    else a.warnings.push_back(where + ": 'tremor_cancel' must be true or false");
-  }
-  if (j.contains("prediction_smoothing")) {
-    const auto& v = j["prediction_smoothing"];
-    if (v.is_boolean()) a.c.filter.stgae.smooth = v.get<bool>();
-    else if (v.is_string()) a.prediction_smoothing(v.get<std::string>(), where + ": prediction_smoothing");
-    else a.warnings.push_back(where + ": 'prediction_smoothing' must be true or false");
-  }
-  if (j.contains("correction_gain")) {
-    const auto& v = j["correction_gain"];
-    if (v.is_boolean()) a.c.filter.stgae.gain = v.get<bool>();
-    else if (v.is_string()) a.correction_gain(v.get<std::string>(), where + ": correction_gain");
-    else a.warnings.push_back(where + ": 'correction_gain' must be true, false or \"auto\"");
-  }
+  // A switch: true or false (its words "on" and "off"), or one of its words, which its
+  // setter checks.
+  using Setter = void (Applier::*)(const std::string&, const std::string&);
+  auto switch_key = [&](const char* key, Setter set, const char* expected) {
+    if (!j.contains(key)) return;
+    const auto& v = j[key];
+    if (v.is_boolean()) (a.*set)(v.get<bool>() ? "on" : "off", where + ": " + key);
+    else if (v.is_string()) (a.*set)(v.get<std::string>(), where + ": " + key);
+    else a.warnings.push_back(where + ": '" + key + "' must be " + expected);
+  };
+  switch_key("palm_fit", &Applier::palm_fit, "true, false or \"auto\"");
+  switch_key("tremor_cancel", &Applier::tremor_cancel, "true or false");
+  switch_key("prediction_smoothing", &Applier::prediction_smoothing, "true or false");
+  switch_key("correction_gain", &Applier::correction_gain, "true, false or \"auto\"");
   auto number = [&](const nlohmann::json& obj, const char* key, const std::string& at, auto&& apply) {
     if (!obj.contains(key)) return;
     if (obj[key].is_number()) apply(obj[key].get<double>(), at + ": " + key);
