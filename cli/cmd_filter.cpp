@@ -186,7 +186,7 @@ void run_filter(const FilterOptions& o) {
 void setup_filter(CLI::App& app) {
   auto o = std::make_shared<FilterOptions>();
   CLI::App* sub = app.add_subcommand(
-      "filter", "Filter a track causally per hand (raw, One Euro, DESP, Kalman, Multi-STGAE); see docs/FILTERS.md");
+      "filter", "Filter a track causally per hand (raw, One Euro, DESP, Kalman, STGAE or Multi-STGAE, DGN); see docs/FILTERS.md");
   sub->add_option("--in", o->in, "Input track CSV")->required();
   sub->add_option("--out", o->out, "Output track CSV")->required();
   sub->add_option("--method", o->method, "Filter method")
@@ -216,20 +216,20 @@ void setup_filter(CLI::App& app) {
                   "model whose rate suits its input (with a 30 and a 90 Hz model, the 90 Hz one from 72 Hz up; docs/STGAE.md \"Models by "
                   "input rate\")");
   sub->add_option("--phases", o->phases,
-                  "Multi-STGAE: interleaved streams for input faster than the model (0 = input rate / model rate)")
+                  "stgae, dgn: interleaved streams for input faster than the model (0 = input rate / model rate)")
       ->capture_default_str();
   sub->add_flag("--unbounded", o->unbounded,
-                "Multi-STGAE: the network's own answer, without the trust region that holds it near its input "
+                "stgae, dgn: the network's own answer, without the trust region that holds it near its input "
                 "(docs/STGAE.md \"Trust region\"; for comparison)");
   sub->add_flag("--gain", o->gain,
-                "Multi-STGAE: keep only the share of the network's correction that the input's next rows confirm at "
+                "stgae, dgn: keep only the share of the network's correction that the input's next rows confirm at "
                 "every input rate (docs/STGAE.md \"Correction gain\"; the default does so only where the input's "
                 "noise is measured at its own rate, input faster than the model; at one stream it gives back the "
                 "removal of 4-6 Hz tremor)");
   sub->add_flag("--no-gain", o->no_gain,
-                "Multi-STGAE: no correction gain at any rate (the default applies it to input faster than the model)");
+                "stgae, dgn: no correction gain at any rate (the default applies it to input faster than the model)");
   sub->add_flag("--smooth-predictions", o->smooth_predictions,
-                "Multi-STGAE: smooth each predicted frame's displacement over time (docs/STGAE.md \"Prediction "
+                "stgae, dgn: smooth each predicted frame's displacement over time (docs/STGAE.md \"Prediction "
                 "smoothing\"; ~40 % less jitter at --horizon-ms 50 for a few % more error)");
   sub->add_flag("--palm-fit", o->palm_fit,
                 "Any method: fit the hand's rigid palm (learnt from the input) to each row's palm joints before "
@@ -239,7 +239,7 @@ void setup_filter(CLI::App& app) {
                 "Cancel quasi-periodic tremor (3.5-12.5 Hz) in each input row before the method, behind the palm fit "
                 "(any method; docs/FILTERS.md \"Tremor canceller\")");
   sub->add_flag("--offline", o->offline,
-                "Multi-STGAE: run a centred model in window mode over the whole recording (not causal); with "
+                "stgae, dgn: run a centred model in window mode over the whole recording (not causal); with "
                 "--horizon-ms, the window ending at each row predicts (the paper's protocol)");
   sub->callback([o] { run_filter(*o); });
 }
