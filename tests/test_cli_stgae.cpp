@@ -204,7 +204,7 @@ TEST_CASE("stgae streams at 20, 30, 90 and 120 Hz and on irregular timestamps, r
   fs::remove_all(dir);
 }
 
-TEST_CASE("stgae with one stream and a zero-offset model: the ramp at the latest model tick on the grid, the input itself where frames lock to the samples") {
+TEST_CASE("stgae with one stream and a zero-offset model: the ramp at the latest model tick on the grid (the row itself before the first tick), the input itself where frames lock to the samples") {
   // One stream under a 30 Hz model: 90 Hz, 120 Hz and irregular 67-110 Hz run on the model's
   // grid (a third of a period and less: too fine to lock); 45 Hz (0.67 periods) locks, and
   // 20 Hz (1.5) locks with each interval split into two frames, so there every row after
@@ -244,10 +244,17 @@ TEST_CASE("stgae with one stream and a zero-offset model: the ramp at the latest
         continue;
       }
       const double tick = ticks.at(a.t);
-      const Pose expected = left ? ramp_pose(kLeftBase, kLeftV, tick) : ramp_pose(kRightBase, kRightV, tick);
+      // Before the grid's first tick after its start the grid has framed one row and knows
+      // no motion: the row answers itself (not the start row held).
+      const Pose expected = ticks.k == 0 ? a.pos
+                            : left       ? ramp_pose(kLeftBase, kLeftV, tick)
+                                         : ramp_pose(kRightBase, kRightV, tick);
+      if (ticks.k == 0 && a.t > ticks.t0) ++(left ? left_rows : right_rows);
       max_err = std::max(max_err, (b.pos - expected).cwiseAbs().maxCoeff());
     }
     CHECK(max_err < 1e-4);  // float model arithmetic and CSV precision
+    // Rows before the first tick, of both starts of the left hand and the right's start.
+    if (!locks) CHECK(left_rows + right_rows >= 3);
     // Not the trivial answer on the grid: the held tick lags the input on a moving hand.
     if (!locks) CHECK((out.rows[21].pos - in.rows[21].pos).cwiseAbs().maxCoeff() > 1e-3);
   }
@@ -270,10 +277,18 @@ TEST_CASE("stgae at 90 Hz (3 streams by default) with a zero-offset model: each 
   CHECK(ungained.meta("filter").value_or("").find("phases=auto no-gain") != std::string::npos);
   const hs::Track smooth = run_ok(in, dir, "--method stgae --smooth-predictions --model " + quoted(models().zero_causal));
   CHECK(smooth.meta("filter").value_or("").find("phases=auto smoothed") != std::string::npos);
-  double max_err = 0.0;
-  long n = 0;
+  double max_err = 0.0, start_err = 0.0;
+  long n = 0, start_rows = 0;
   for (size_t i = 0; i < in.rows.size(); ++i) {
     const hs::TrackRow& a = in.rows[i];
+    const double t0 = in.rows[a.hand == in.rows.front().hand ? 0 : 1].t;  // the hand's first row
+    if (a.t > t0 && a.t - t0 < 1.0 / 30.0 - 1e-6) {
+      // Before the grid's first tick: the moving hand's rows answer themselves (the start
+      // row held would be 1-2 rows of the ramp behind), with every option.
+      for (const hs::Track* o : {&out, &gained, &ungained, &smooth})
+        start_err = std::max(start_err, (o->rows[i].pos - a.pos).cwiseAbs().maxCoeff());
+      ++start_rows;
+    }
     if (a.t - in.rows.front().t < 1.0) continue;  // warm-up
     const bool left = a.hand == Hand::Left;
     const Pose expected = left ? ramp_pose(kLeftBase, kLeftV, a.t - 1.0 / 270.0) : ramp_pose(kRightBase, kRightV, a.t - 1.0 / 270.0);
@@ -282,6 +297,8 @@ TEST_CASE("stgae at 90 Hz (3 streams by default) with a zero-offset model: each 
   }
   CHECK(n > 150);
   CHECK(max_err < 1e-4);
+  CHECK(start_rows == 4);  // two rows of each hand
+  CHECK(start_err < 1e-6);
   fs::remove_all(dir);
 }
 

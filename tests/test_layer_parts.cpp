@@ -194,6 +194,56 @@ TEST_CASE("tracker filter: the worker's answers equal lockstep's and hide the ha
   CHECK(err_lock < 0.7 * err_stale);
 }
 
+namespace {
+// An engine that answers its input for its first 0.1 s after a reset (a network adapter's
+// start-up: core/src/stgae_filter.cpp) and then holds its last answer (no response to
+// innovation at all).
+class StartsThenHolds final : public PoseFilter {
+ public:
+  void reset() noexcept override {
+    t0_ = last_ = kNaN;
+    held_ = untracked_pose();
+  }
+  bool push(double t, const Pose& observed) noexcept override {
+    if (!std::isnan(last_) && !(t > last_)) return false;
+    if (std::isnan(t0_)) t0_ = t;
+    if (t - t0_ < 0.1) held_ = observed;
+    last_ = t;
+    return true;
+  }
+  void estimate(double, Pose& out) const noexcept override { out = held_; }
+  double last_time() const noexcept override { return last_; }
+
+ private:
+  double t0_ = kNaN, last_ = kNaN;
+  Pose held_ = untracked_pose();
+};
+}  // namespace
+
+TEST_CASE("tracker filter: the hand-off's gain is not learnt while the engine starts up") {
+  // The engine follows its input 1:1 only while it starts (within the blend-in after a
+  // restart), then holds. Lockstep answers before the engine has each sample, moved by the
+  // learnt gain times the innovation: learnt from the start-up, that gain would be about
+  // 1 and decay by 5 % a sample, moving the held answer towards each new sample.
+  TrackerFilter f(std::make_unique<StartsThenHolds>(), 0.5, 0.1, Execution::Lockstep);
+  Answer a;
+  XrTime t = 1'000'000'000;
+  double moved = 0.0;
+  int answered = 0;
+  for (int i = 0; i < 60; ++i, t += kPeriod) {
+    const Pose p = hand_at(0.5 * static_cast<double>(i) * 0.011);  // 0.5 m/s
+    if (!f.update(t, &p, t, a)) continue;
+    if (i < 40) continue;  // past the blend-in (0.25 s: 23 samples) and some samples after it
+    REQUIRE(a.corrected);
+    const Pose held = hand_at(0.5 * 9.0 * 0.011);  // sample 9, the last within the engine's 0.1 s
+    moved = std::max(moved, (a.pose - held).rowwise().norm().maxCoeff());
+    ++answered;
+  }
+  CHECK(answered == 20);
+  MESSAGE("the answer moved from the engine's held pose by up to " << moved * 1e3 << " mm");
+  CHECK(moved < 1e-9);
+}
+
 TEST_CASE("joint rewrite: weight, smoothing and garbage, an estimate elsewhere replaces nothing") {
   std::array<XrHandJointLocationEXT, kJointCount> joints{};
   const Pose raw = hand_at(0.0);

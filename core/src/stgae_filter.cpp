@@ -178,6 +178,16 @@ class StgaeFilter final : public PoseFilter {
           out(j, c) = back == 0 ? path_at(p, tq, 3 * j + c) : (out(j, c) + w * path_at(p, tq, 3 * j + c)) / (1.0 + w);
       }
     }
+    // A grid that has framed one row (its start) knows nothing of the motion: its path
+    // holds that row. The rows before its first tick (two at 90 Hz under a 30 Hz model) are
+    // answered by themselves; held, the answer froze for those rows and then jumped by the
+    // hand's motion since (docs/STGAE.md "Start").
+    if (ticks_ > 0 || last_t_ <= frame_t_ + kTickToleranceS) return;
+    for (int j = 0; j < n_; ++j) {
+      const float* x = cur_.data() + 3 * j;
+      if (!finite_xyz(x)) continue;
+      for (int c = 0; c < 3; ++c) out(j, c) = static_cast<double>(x[c]);
+    }
   }
 
   // The value of coordinate i on a stream's path at time tq.

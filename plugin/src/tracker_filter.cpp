@@ -216,7 +216,10 @@ void TrackerFilter::process(const Sample& s) noexcept {
       break;
     }
   }
-  if (have_pred && !first) {
+  // Not while the engine starts up (the blend-in after a restart): its first answers are
+  // its input (core/src/stgae_filter.cpp), a response it does not keep.
+  const bool starting = static_cast<double>(s.t - start_) * 1e-9 < kBlendS;
+  if (have_pred && !first && !starting) {
     for (int j = 0; j < kJointCount; ++j) {
       const Eigen::RowVector3d d = obs.row(j) - pred.row(j), r = est.row(j) - pred.row(j);
       const double den = d.squaredNorm();
