@@ -20,7 +20,9 @@
 // The hand-off hides most of its latency: until the worker has processed the app's sample,
 // the answer is the published path moved by gain * (sample - path at the sample's time),
 // the innovation the engine would see, with the gain the engine itself has shown on past
-// samples (least squares of its output change against its input's innovation, per joint).
+// samples (least squares of its output change against its input's innovation, per joint;
+// not learnt during the blend-in after a restart, where an engine starting up may answer
+// its input 1:1).
 //
 // Locks: in_mu_ guards the input queue, pub_mu_ the pointer to the published state (the
 // engine fills a back buffer, then swaps it in); both are held only for copies and reads,
