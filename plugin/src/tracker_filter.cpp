@@ -216,10 +216,11 @@ void TrackerFilter::process(const Sample& s) noexcept {
       break;
     }
   }
-  // Not while the engine starts up (the blend-in after a restart): its first answers are
-  // its input (core/src/stgae_filter.cpp), a response it does not keep.
+  // Not while the engine starts up (the blend-in after a restart, its first sample and a
+  // restart above included): its first answers are its input (core/src/stgae_filter.cpp),
+  // a response it does not keep.
   const bool starting = static_cast<double>(s.t - start_) * 1e-9 < kBlendS;
-  if (have_pred && !first && !starting) {
+  if (have_pred && !starting) {
     for (int j = 0; j < kJointCount; ++j) {
       const Eigen::RowVector3d d = obs.row(j) - pred.row(j), r = est.row(j) - pred.row(j);
       const double den = d.squaredNorm();
