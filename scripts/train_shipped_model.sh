@@ -29,6 +29,10 @@ esac
 out=${2:-out/shipped_$name}
 mkdir -p "$out"
 out=$(cd "$out" && pwd)
+# Inside the checkout, files are named from its root (the script runs there): the models'
+# meta records the paths it is given, and a path of this machine would travel with them.
+out=$(realpath --relative-base="$root" "$out")
+ft_base=$(realpath --relative-to="$out" "$root/models/configs")
 ft_train="\"init\": \"$out/base.hsm\", \"teacher\": \"$out/base.hsm\""
 case "$name" in
   causal) base_cfg=causal_xr26.json; ft_cfg=finetune_distill_motion_xr26.json ;;
@@ -41,7 +45,7 @@ cmake -S . -B build/release -DCMAKE_BUILD_TYPE=Release -DHS_BUILD_TRAINING=ON >/
 cmake --build build/release -j"$(nproc)" --target handsteady
 hs=build/release/cli/handsteady
 $hs train --config "models/configs/$base_cfg" --out "$out/base.hsm" --threads 1 --quiet | tee "$out/base.log"
-printf '{\n  "base": "%s",\n  "train": {%s}\n}\n' "$root/models/configs/$ft_cfg" "$ft_train" > "$out/finetune.json"
+printf '{\n  "base": "%s",\n  "train": {%s}\n}\n' "$ft_base/$ft_cfg" "$ft_train" > "$out/finetune.json"
 $hs train --config "$out/finetune.json" --out "$out/finetune.hsm" --threads 1 --quiet | tee "$out/finetune.log"
 $hs blend --from "$out/base.hsm" --to "$out/finetune.hsm" --alpha 0.7 --out "$out/handsteady_xr26_$name.hsm"
 echo "train_shipped_model: $out/handsteady_xr26_$name.hsm"
