@@ -466,3 +466,33 @@ TEST_CASE("the shipped causal, STGAE and DGN models are 0.3 x their base + 0.7 x
     CHECK(hs::load_hsm(dir / "base" / (steps + "_finetune.hsm")));
   }
 }
+
+// A model's meta keeps its training record (configs, the files it started from); a path of
+// the machine it was trained on would travel with every installed copy (package_deb looks
+// for the checkout's own path in the package, so it sees this only in a checkout at that
+// path). Paths are named from the checkout's root (scripts/train_shipped_model.sh).
+TEST_CASE("the models in models/ name no absolute path in their meta") {
+  const auto dir = hs::test::models_dir();
+  std::vector<std::string> hits;
+  auto walk = [&hits](const nlohmann::json& j, const std::string& where, auto& self) -> void {
+    if (j.is_object()) {
+      for (const auto& [k, v] : j.items()) self(v, where + "." + k, self);
+    } else if (j.is_array()) {
+      for (size_t i = 0; i < j.size(); ++i) self(j[i], where + "[" + std::to_string(i) + "]", self);
+    } else if (j.is_string()) {
+      const auto s = j.get<std::string>();
+      if (!s.empty() && (s.front() == '/' || s.find(":\\") != std::string::npos)) hits.push_back(where + " = " + s);
+    }
+  };
+  size_t files = 0;
+  for (const auto& e : std::filesystem::recursive_directory_iterator(dir)) {
+    if (e.path().extension() != ".hsm") continue;
+    ++files;
+    const auto meta = nlohmann::json::parse(hs::read_hsm_file(e.path()).config.meta_json);
+    walk(meta, e.path().lexically_relative(dir).string(), walk);
+  }
+  CHECK(files >= 8);
+  CAPTURE(hits.size());
+  for (const auto& h : hits) MESSAGE(h);
+  CHECK(hits.empty());
+}
