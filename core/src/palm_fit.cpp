@@ -249,11 +249,13 @@ void PalmFit::apply(Pose& pose) noexcept {
   resid2_ += (rs / n_in - resid2_) / resid_rows_;
   ++rows_;
   if (rows_ <= kPalmMinRows) return;
-  // Answer: every rigid palm joint the template knows, where the fit puts it.
+  // Answer: every rigid palm joint the template knows, where the fit puts it. A joint that
+  // is not rigid here keeps its own position, unless it is far off its usual place (an
+  // outlier against its own median residual): there the fit's is nearer.
   for (size_t i = 0; i < kP; ++i) {
-    if (!rigid[i]) continue;
     const V3 p = fit.apply(a[i]);
-    pose.row(kPalmJoints[i]) = p.transpose();
+    const bool far_off = known[i] && have[i] && (p - b[i]).norm() > std::max(cut, kPalmOutlier * median_[i]);
+    if (rigid[i] || far_off) pose.row(kPalmJoints[i]) = p.transpose();
   }
 }
 

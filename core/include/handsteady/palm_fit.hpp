@@ -18,8 +18,10 @@
 // mistakes: a joint off the fit several rows running is not an outlier but a template
 // point learnt wrong (or a shape the tracker changed), and is learnt anew; rows no fit
 // agrees with, many running, start a new template. A joint whose typical (median)
-// residual stays far above the other joints' does not move with the palm in this tracker
-// (ManipNet's THUMB_METACARPAL sits on the moving thumb): it passes through. Nothing
+// residual stays above the other joints' does not move with the palm in this tracker
+// (ManipNet's THUMB_METACARPAL sits on the moving thumb; Leap Motion's WRIST bends under a
+// millimetre against the knuckles): it passes through, unless it is far off
+// its own usual place, where the fit answers it as an outlier. Nothing
 // changes until kPalmMinRows rows have taught the template, or where fewer than
 // kPalmMinPoints palm joints are present. Other joints are never touched.
 // noexcept, no allocation. make_filter puts it in front of the network methods by default
@@ -49,7 +51,7 @@ inline constexpr int kPalmMaxOutliers = 5;          // joints left out of one ro
 inline constexpr int kPalmRelearnRows = 4;          // an outlier this many rows running is learnt anew
 inline constexpr int kPalmRestartRows = 10;         // rows running without a fit start a new template
 inline constexpr double kPalmRigidFactor = 2.0;     // a joint whose median residual is this many times
-inline constexpr double kPalmRigidFloorM = 0.001;   // the median joint's (plus this, in quadrature) is not rigid
+inline constexpr double kPalmRigidFloorM = 0.0005;  // the median joint's (plus this, in quadrature) is not rigid
 
 class PalmFit {
  public:
