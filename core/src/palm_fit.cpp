@@ -254,8 +254,8 @@ void PalmFit::apply(Pose& pose) noexcept {
   // outlier against its own median residual): there the fit's is nearer.
   for (size_t i = 0; i < kP; ++i) {
     const V3 p = fit.apply(a[i]);
-    const bool far_off = known[i] && have[i] && (p - b[i]).norm() > std::max(cut, kPalmOutlier * median_[i]);
-    if (rigid[i] || far_off) pose.row(kPalmJoints[i]) = p.transpose();
+    if (rigid[i] || (known[i] && have[i] && (p - b[i]).norm() > std::max(cut, kPalmOutlier * median_[i])))
+      pose.row(kPalmJoints[i]) = p.transpose();
   }
 }
 

@@ -112,6 +112,10 @@ TEST_CASE("eight threads on one tracker with faulty data: finite, plausible answ
     std::atomic<XrTime> now{app.frame()};
     std::atomic<bool> stop{false};
     std::atomic<long> calls{0}, failures{0}, bad_velocity{0}, far{0}, joints{0}, worst_um{0}, fastest_mm_s{0};
+    auto raise_to = [](std::atomic<long>& max, long v) {  // max = max(max, v), from any thread
+      for (long w = max.load(); v > w && !max.compare_exchange_weak(w, v);) {
+      }
+    };
     auto worker = [&](int id) {
       long i = 0;
       while (!stop.load()) {
@@ -127,16 +131,12 @@ TEST_CASE("eight threads on one tracker with faulty data: finite, plausible answ
             const double e = !p.allFinite() ? 1e3 : joint_tracked(truth, k) ? (p - truth.row(k).transpose()).norm() : 0.0;
             ++joints;
             if (e > 0.1) ++far;
-            const long um = static_cast<long>(std::min(e, 1e3) * 1e6);
-            for (long w = worst_um.load(); um > w && !worst_um.compare_exchange_weak(w, um);) {
-            }
+            raise_to(worst_um, static_cast<long>(std::min(e, 1e3) * 1e6));
             const auto& v = j.vel[k];
             if (!(v.velocityFlags & XR_SPACE_VELOCITY_LINEAR_VALID_BIT)) continue;
             const double speed = xr::finite(v.linearVelocity) ? xr::to_eigen(v.linearVelocity).norm() : 1e6;
             if (speed > 10.0) ++bad_velocity;
-            const long mm_s = static_cast<long>(std::min(speed, 1e6) * 1e3);
-            for (long w = fastest_mm_s.load(); mm_s > w && !fastest_mm_s.compare_exchange_weak(w, mm_s);) {
-            }
+            raise_to(fastest_mm_s, static_cast<long>(std::min(speed, 1e6) * 1e3));
           }
         }
         ++i;
