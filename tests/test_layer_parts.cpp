@@ -244,6 +244,51 @@ TEST_CASE("tracker filter: the hand-off's gain is not learnt while the engine st
   CHECK(moved < 1e-9);
 }
 
+TEST_CASE("tracker filter: a joint that was unknown gets its velocity from more than one difference a millisecond long") {
+  // Apps ask from several threads at times a millisecond apart, and runtimes drop joints.
+  // The velocity is a low-passed difference of the estimates; a joint unknown to the
+  // engine (missing when it restarted) must not take one difference over a millisecond as
+  // its velocity, where 5 mm of re-acquisition noise is 5 m/s.
+  for (const FilterMethod method : {FilterMethod::Raw, FilterMethod::OneEuro}) {
+    CAPTURE(static_cast<int>(method));
+    FilterConfig c;
+    c.method = method;  // raw: the estimate is the input, a joint not seen since the start unknown
+    TrackerFilter f(make_filter(c), 0.5, 0.1, Execution::Inline);
+    Answer out;
+    XrTime t = 1'000'000'000;
+    const double speed = 0.5;  // m/s along x
+    double offset = 0.0;       // the hand's jumps
+    auto at = [&](XrTime time) { return hand_at(offset + speed * static_cast<double>(time - 1'000'000'000) * 1e-9); };
+    constexpr int kJoint = 8;
+    double fastest = 0.0;
+    for (int jump = 0; jump <= 3; ++jump) {
+      for (int i = 0; i < 30; ++i, t += kPeriod) {
+        const Pose p = at(t);
+        REQUIRE(f.update(t, &p, t, out));
+        if (jump > 0) fastest = std::max(fastest, out.velocity.row(kJoint).norm());
+      }
+      if (jump == 3) break;
+      offset += 0.3;  // the hand re-acquired 30 cm away: the engine restarts ...
+      Pose p = at(t);
+      p.row(kJoint).setConstant(std::numeric_limits<double>::quiet_NaN());  // ... without this joint
+      REQUIRE(f.update(t, &p, t, out));
+      REQUIRE(out.weight == 0.0);
+      t += kPeriod;
+      p = at(t);
+      p(kJoint, 1) += 0.005;  // the joint back, 5 mm off
+      REQUIRE(f.update(t, &p, t, out));
+      t += TrackerFilter::kMinStep;  // the next sample a millisecond later, on the track
+      p = at(t);
+      REQUIRE(f.update(t, &p, t, out));
+      if (std::isfinite(out.velocity(kJoint, 0))) fastest = std::max(fastest, out.velocity.row(kJoint).norm());
+      t += kPeriod;
+    }
+    MESSAGE("fastest velocity of the joint: " << fastest << " m/s (the hand moves at " << speed << " m/s)");
+    CHECK(fastest < 2.0 * speed);
+    CHECK(std::abs(out.velocity(kJoint, 0) - speed) < 0.2 * speed);  // and it follows the hand
+  }
+}
+
 TEST_CASE("joint rewrite: weight, smoothing and garbage, an estimate elsewhere replaces nothing") {
   std::array<XrHandJointLocationEXT, kJointCount> joints{};
   const Pose raw = hand_at(0.0);

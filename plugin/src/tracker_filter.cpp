@@ -230,7 +230,10 @@ void TrackerFilter::process(const Sample& s) noexcept {
       gain = std::isfinite(gain) ? gain + kGainRate * (g - gain) : g;
     }
   }
-  // Velocity: finite differences of consecutive estimates, low-passed.
+  // Velocity: finite differences of consecutive estimates, low-passed. Samples may be a
+  // millisecond apart (apps asking from several threads), so no single difference is ever
+  // taken as the velocity: an unknown one starts from rest, and a joint missing for a
+  // sample keeps its velocity rather than becoming unknown again.
   if (!first && st.hist.size() > 0) {
     const Pose& prev = st.hist.newest_pose();
     const double dt = static_cast<double>(s.t - st.hist.newest()) * 1e-9;
@@ -239,8 +242,9 @@ void TrackerFilter::process(const Sample& s) noexcept {
       for (int k = 0; k < 3; ++k) {
         const double d = (est(j, k) - prev(j, k)) / dt;
         double& v = st.velocity(j, k);
-        if (!std::isfinite(d)) v = kNaN;
-        else v = std::isfinite(v) ? v + a * (d - v) : d;
+        if (!std::isfinite(d)) continue;
+        const double before = std::isfinite(v) ? v : 0.0;
+        v = before + a * (d - before);
       }
   }
   st.hist.push(s.t, est);
