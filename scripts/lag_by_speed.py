@@ -99,6 +99,10 @@ def main():
                 continue
             n = s[0]
             print(f'| {BINS[i]:g}–{hi} | {label} | {n} | {s[1] / n:.3f} | {s[2] / n:.3f} | {s[3] / n:.3f} | {s[4] / n:.2f} |')
+    for label in labels or []:  # every moving joint row (over 1 mm/s)
+        t = [sum(stats[(label, i)][k] for i in range(len(BINS) - 1) if (label, i) in stats) for k in range(5)]
+        if t[0]:
+            print(f'| all | {label} | {t[0]} | {t[1] / t[0]:.3f} | {t[2] / t[0]:.3f} | {t[3] / t[0]:.3f} | {t[4] / t[0]:.2f} |')
 
 
 if __name__ == '__main__':
