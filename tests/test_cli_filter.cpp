@@ -9,6 +9,8 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <string>
 
 namespace {
@@ -117,7 +119,12 @@ TEST_CASE("filter rejects bad options with a non-zero exit") {
   CHECK(hs::test::run_cli("filter " + io + " --method median 2>/dev/null") != 0);
   CHECK(hs::test::run_cli("filter " + io + " --method desp --alpha 1.5 2>/dev/null") == 2);
   CHECK(hs::test::run_cli("filter " + io + " --method oneeuro --mincutoff 0 2>/dev/null") == 2);
-  CHECK(hs::test::run_cli("filter " + io + " --horizon-ms -5 2>/dev/null") == 2);
+  CHECK(hs::test::run_cli("filter " + io + " --horizon-ms -5 2>" + quoted(dir / "err.txt")) == 2);
+  {  // the message names the option, not a file
+    std::ifstream in(dir / "err.txt");
+    const std::string err((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    CHECK(err.find("option --horizon-ms: horizon must be >= 0 ms, got -5") != std::string::npos);
+  }
   CHECK(hs::test::run_cli("filter --in " + quoted(dir / "missing.csv") + " --out " + quoted(dir / "o.csv") +
                           " 2>/dev/null") != 0);
   CHECK_FALSE(fs::exists(dir / "out.csv"));

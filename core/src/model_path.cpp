@@ -62,7 +62,8 @@ std::filesystem::path default_model_path(std::string_view file) {
   const std::string what = r.from_env ? std::string("the model named by ") + std::string(kModelEnvVar) +
                                             " does not exist: " + r.describe_tried()
                                       : "no model given and the shipped model " + std::string(file) +
-                                            " was not found; tried: " + r.describe_tried();
+                                            " was not found (give --model FILE.hsm or set " +
+                                            std::string(kModelEnvVar) + "); tried: " + r.describe_tried();
   throw InputError({"", 0, "--model"}, what);
 }
 
