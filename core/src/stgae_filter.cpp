@@ -8,6 +8,7 @@
 #include "handsteady/correction_bound.hpp"
 #include "handsteady/correction_gain.hpp"
 #include "handsteady/input_noise.hpp"
+#include "handsteady/motion_lag_cap.hpp"
 #include "handsteady/prediction_smoothing.hpp"
 #include "handsteady/stgae_engine.hpp"
 #include "handsteady/stgae_filter.hpp"
@@ -62,6 +63,7 @@ class StgaeFilter final : public PoseFilter {
   void reset() noexcept override {
     restart_grid();
     gain_.reset();
+    lag_cap_.reset();
     noise_.reset();
     intervals_.reset();
     mismatch_rows_ = 0;
@@ -72,6 +74,7 @@ class StgaeFilter final : public PoseFilter {
 
   bool push(double t, const Pose& observed) noexcept override {
     if (!is_next_time(t, last_t_)) return false;
+    lag_cap_.clear();
     if (!push_row(t, observed)) return true;  // hand lost in this frame
     if (gaining() && latest_ >= 0) {
       answer(t, ans_);
@@ -80,6 +83,16 @@ class StgaeFilter final : public PoseFilter {
       gain_.observe(t, std::span<const float>(cur_.data(), cur_.size()),
                     std::span<const double>(ans_.data(), static_cast<size_t>(ans_.size())),
                     phases_ >= 2 ? noise_.noise2() : std::span<const double>{});
+    }
+    if (bounded_ && phases_ >= 2) {
+      // The lag cap reads the answer as it goes out (with the gain's shift) and the noise
+      // measured at the input rate, which one stream's rows do not give.
+      Pose a;
+      answer(t, a);
+      if (gaining())
+        for (int j = 0; j < n_; ++j)
+          for (int c = 0; c < 3; ++c) a(j, c) += gain_.shift(j, c);
+      lag_cap_.observe(std::span<const float>(cur_.data(), cur_.size()), a, noise_.noise2(), noise_.jumps());
     }
     return true;
   }
@@ -148,14 +161,16 @@ class StgaeFilter final : public PoseFilter {
 
   void estimate(double t, Pose& out) const noexcept override {
     answer(t, out);
-    if (!gaining() || std::isnan(last_t_)) return;
-    // The correction gain is a denoiser's: its shift fades out over one model period ahead,
-    // so predictions keep the network's path (the input's noise the shift lets through
-    // made the 50 ms predictions jerkier: docs/STGAE.md "Correction gain").
+    if (std::isnan(last_t_)) return;
+    // The correction gain and the lag cap are a denoiser's: their shifts fade out over one
+    // model period ahead, so predictions keep the network's path (the input's noise the
+    // gain's shift lets through made the 50 ms predictions jerkier: docs/STGAE.md
+    // "Correction gain"). The cap's shift is zero where it does not act.
     const double w = std::max(0.0, 1.0 - (std::max(t, last_t_) - last_t_) / period_);
     if (w <= 0.0) return;
+    const bool gain = gaining();
     for (int j = 0; j < n_; ++j)
-      for (int c = 0; c < 3; ++c) out(j, c) += w * gain_.shift(j, c);
+      for (int c = 0; c < 3; ++c) out(j, c) += w * ((gain ? gain_.shift(j, c) : 0.0) + lag_cap_.shift(j, c));
   }
 
   // The streams' answer at t, before the correction gain.
@@ -276,6 +291,7 @@ class StgaeFilter final : public PoseFilter {
     for (auto& b : bounds_) b.reset();
     smoother_.reset();
     gain_.restart();
+    lag_cap_.reset();
     for (PhaseOutput& o : out_) o.have = o.have_prev = false;
     older_w_.fill(kOlderPhaseWeight);
     disagree2_.fill(0.0);
@@ -418,6 +434,7 @@ class StgaeFilter final : public PoseFilter {
   bool smoothed_ = false;
   PredictionSmoother smoother_;  // one for all streams (smoothed_): their frames in time order
   CorrectionGain gain_;          // how much of the answer's correction to keep (gaining())
+  MotionLagCap lag_cap_;         // the correction along a fast joint's motion, held (bounded_, K >= 2)
   InputNoise noise_;             // the input's noise at the input rate, for the trust region
   std::array<double, kJointCount> older_w_{};       // the older stream's weight per joint
   std::array<double, kJointCount> disagree2_{};     // mean squared disagreement of the two newest streams, m^2

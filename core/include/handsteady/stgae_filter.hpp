@@ -22,8 +22,10 @@ namespace hs {
 // horizon 0 -> the denoised latest model frame, moved by the linear trend to t; horizon >
 // 0 -> the predicted frames interpolated at t + horizon_s. The hand lost (no valid joint)
 // for more than kModelResetGapS resets the streams. `bounded`: each stream's output is held
-// within the trust region of its input (correction_bound.hpp); false = the network's raw
-// answer (for comparison). `gain` (with bounded): the answers keep only the share of their
+// within the trust region of its input (correction_bound.hpp), and where the noise is
+// measured at the input rate (K >= 2) the answer's correction along a fast joint's own
+// motion is held (motion_lag_cap.hpp, fading out over one model period ahead); false = the
+// network's raw answer (for comparison). `gain` (with bounded): the answers keep only the share of their
 // correction that the input's next rows confirm, less the share the measured noise explains
 // (correction_gain.hpp, fading out over one model period ahead); unset (auto) where the
 // noise is measured at the input rate (K >= 2 streams), true at every rate, false never.

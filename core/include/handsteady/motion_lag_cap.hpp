@@ -1,0 +1,48 @@
+#pragma once
+// The network's lag behind a fast-moving joint, taken out of its answer. Noise has no
+// preferred direction, so a denoiser's correction (answer - input) along the joint's own
+// motion should be no larger than across it; the network's shortfall on fast motion (it
+// answers 1-1.5 ms behind a free-air hand, 2 mm on joints over 1 m/s; docs/STGAE.md "Fast
+// free-air motion") is all along it. Where the joint's last answers moved by more than
+// kMotionCapSpeedZ times what the input's noise explains of such a step, the correction's
+// component along that step is held to kMotionCapFactor times the noise's RMS; across it,
+// and on slower joints, nothing changes. Needs the noise measured at the input rate
+// (InputNoise: input faster than the model). Rows that are jumps (outliers) keep their
+// correction. Per hand, no allocation, noexcept.
+#include "handsteady/skeleton.hpp"
+#include "handsteady/track.hpp"
+
+#include <array>
+#include <span>
+
+namespace hs {
+
+// Chosen on the benchmark's tuning split at 90 Hz and the handwriting demo's ink jerk
+// (docs/STGAE.md "Fast free-air motion"): a factor of 0.5 with the speed bar at 2 took the
+// tuning split 1.7235 -> 1.7018 mm but the demo's jerk from 0.470 to 0.510 of raw's (over
+// the Multi-STGAE v2 issue's 0.5): its pen moves slower than the bar of 8, which keeps the
+// demo as it was and most of the gain on fast hands.
+inline constexpr double kMotionCapFactor = 0.5;
+inline constexpr double kMotionCapSpeedZ = 8.0;
+
+class MotionLagCap {
+ public:
+  void reset() noexcept;
+  // The input row x (3 * kJointCount, joint-major xyz, NaN = missing), the answer at its
+  // time without this cap (NaN rows = none), and the input's noise (InputNoise: E|n|^2 per
+  // joint, this row's jumps). Sets the shift for answers made from this row.
+  void observe(std::span<const float> x, const Pose& answer, std::span<const double> noise2,
+               std::span<const double> jump) noexcept;
+  // Clears the shift (a row without the hand); the answers seen stay.
+  void clear() noexcept { shift_.fill(0.0); }
+  // What to add to coordinate c of joint j of answers made from the last row (m).
+  double shift(int j, int c) const noexcept { return shift_[static_cast<size_t>(3 * j + c)]; }
+
+ private:
+  static constexpr size_t kRows = 3;          // the answers kept: the step is the last one's from the third
+  std::array<Pose, kRows> answers_{};         // the last answers (with the cap), newest at (n_ - 1) % kRows
+  long n_ = 0;                                // rows observed since reset
+  std::array<double, 3 * kJointCount> shift_{};
+};
+
+}  // namespace hs
