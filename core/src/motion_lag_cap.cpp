@@ -24,7 +24,7 @@ void MotionLagCap::observe(std::span<const float> x, const Pose& answer, std::sp
     for (int j = 0; j < kJointCount; ++j) {
       const auto ju = static_cast<size_t>(j);
       const float* xj = x.data() + 3 * ju;
-      const Eigen::Vector3d in(xj[0], xj[1], xj[2]);
+      const Eigen::Vector3d in = Eigen::Vector3f(xj[0], xj[1], xj[2]).cast<double>();
       const Eigen::Vector3d out = answer.row(j).transpose();
       const Eigen::Vector3d step = (last.row(j) - third.row(j)).transpose();
       const double sigma = std::sqrt(noise2[ju]);
