@@ -76,20 +76,22 @@ class StgaeFilter final : public PoseFilter {
     if (!is_next_time(t, last_t_)) return false;
     lag_cap_.clear();
     if (!push_row(t, observed)) return true;  // hand lost in this frame
-    if (gaining() && latest_ >= 0) {
-      answer(t, ans_);
+    const bool gain = gaining() && latest_ >= 0;
+    const bool cap = bounded_ && phases_ >= 2;
+    if (!gain && !cap) return true;
+    answer(t, ans_);  // once, for both
+    if (gain) {
       // The noise is measured at the input rate only where rows come between a stream's
       // frames (K >= 2): one stream's rows are its frames (the trust region's `measured`).
       gain_.observe(t, std::span<const float>(cur_.data(), cur_.size()),
                     std::span<const double>(ans_.data(), static_cast<size_t>(ans_.size())),
                     phases_ >= 2 ? noise_.noise2() : std::span<const double>{});
     }
-    if (bounded_ && phases_ >= 2) {
+    if (cap) {
       // The lag cap reads the answer as it goes out (with the gain's shift) and the noise
       // measured at the input rate, which one stream's rows do not give.
-      Pose a;
-      answer(t, a);
-      if (gaining())
+      Pose a = ans_;
+      if (gain)
         for (int j = 0; j < n_; ++j)
           for (int c = 0; c < 3; ++c) a(j, c) += gain_.shift(j, c);
       lag_cap_.observe(std::span<const float>(cur_.data(), cur_.size()), a, noise_.noise2(), noise_.jumps());
@@ -439,7 +441,7 @@ class StgaeFilter final : public PoseFilter {
   std::array<double, kJointCount> older_w_{};       // the older stream's weight per joint
   std::array<double, kJointCount> disagree2_{};     // mean squared disagreement of the two newest streams, m^2
   std::array<int, kJointCount> disagree_count_{};
-  Pose ans_ = untracked_pose();  // the answer at the last row, before the gain
+  Pose ans_ = untracked_pose();  // the answer at the last row, before the gain and the cap
   int n_ = 0, dt_frames_ = 0, phases_ = 1, latest_ = -1, valid_rows_ = 0, mismatch_rows_ = 0;
   IntervalRing<kRateWindow> intervals_;  // the last sample intervals (s)
   double period_ = 1.0 / 30.0, sub_period_ = 1.0 / 30.0;
