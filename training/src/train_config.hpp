@@ -17,6 +17,9 @@ namespace hs::train {
 // Loss weights; every term is in cm^2 (positions) so the weights are comparable.
 struct LossWeights {
   double pose = 1.0;      // MSE of the denoised window
+  // MSE of the window's newest denoised frame, the one a stream answers (the pose term
+  // gives it 1/T of its weight; its error along the motion is the stream's lag).
+  double newest = 0.0;
   double bone = 1.0;      // (bone length error)^2 of the denoised window
   double symmetry = 0.1;  // (symmetry edge length error)^2
   double smooth = 0.0;    // (acceleration error)^2 of the denoised window

@@ -624,6 +624,34 @@ TEST_CASE("two tiny epochs on synthetic motion: the loss decreases, the model fi
     CHECK(load_hsm(o.out, true)->config.window == 8);
   }
 
+  // loss.newest: the newest frame's squared error added with its weight. Started from the
+  // trained model at a learning rate that moves nothing, the validation loss (fixed windows,
+  // eval mode) grows linearly in the weight, by a positive error.
+  {
+    TrainConfig nw = config;
+    nw.epochs = 1;
+    nw.lr = {{0, 1e-12}};
+    nw.init = out.string();
+    std::vector<double> val;
+    for (double w : {0.0, 1.0, 3.0}) {
+      nw.loss.newest = w;
+      TrainOptions o;
+      o.progress = false;
+      o.out = dir / "newest.hsm";
+      std::ostringstream l;
+      const TrainResult rn = train_stgae(nw, o, l);
+      REQUIRE(rn.epochs.size() == 1);
+      val.push_back(rn.epochs[0].val_loss);
+    }
+    const double term = val[1] - val[0];
+    CHECK(term > 1e-4 * val[0]);
+    CHECK(val[2] - val[0] == doctest::Approx(3 * term).epsilon(1e-3));
+  }
+  CHECK(parse_train_config(R"({"model": {}, "loss": {"newest": 2, "stages": [{"epoch": 1, "newest": 0.5}]}})")
+            .loss_stages[0]
+            .second.newest == 0.5);
+  CHECK(error_field(R"({"model": {}, "loss": {"newest": -1}})") == "loss");
+
   // A checkpoint of another architecture is refused.
   TrainConfig other = config;
   other.model.encoder_channels = {6, 10, 12};
