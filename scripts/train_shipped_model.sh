@@ -1,10 +1,12 @@
 #!/usr/bin/env bash
 # Trains a shipped model from scratch, the three steps models/MODEL.md describes:
-#  causal (models/handsteady_xr26_causal.hsm, Multi-STGAE, about 65 min on a 2-core machine):
+#  causal (models/handsteady_xr26_causal.hsm, Multi-STGAE, about 70 min on a 2-core machine):
 #   1. the base model on FPHA subjects 1-4, the full schedule (models/configs/causal_xr26.json;
 #      until 2026-11-29 the shortened models/configs/shipped_causal_xr26.json);
 #   2. its fine-tune on all recorded training data, BatchNorm statistics kept, taught the
-#      base model's motion ahead on FPHA (models/configs/finetune_distill_motion_xr26.json);
+#      base model's answers and motion ahead on FPHA, the newest frame weighted
+#      (models/configs/finetune_distill_motion_newest_xr26.json; until 2026-11-30
+#      models/configs/finetune_distill_motion_xr26.json, without loss.newest and loss.distill);
 #  stgae (models/handsteady_xr26_stgae.hsm, denoise only, about 70 min):
 #   1. the base model on the full schedule (models/configs/stgae_causal_long_xr26.json; until
 #      2026-11-30 the shortened models/configs/stgae_causal_xr26.json);
@@ -35,7 +37,7 @@ out=$(realpath --relative-base="$root" "$out")
 ft_base=$(realpath --relative-to="$out" "$root/models/configs")
 ft_train="\"init\": \"$out/base.hsm\", \"teacher\": \"$out/base.hsm\""
 case "$name" in
-  causal) base_cfg=causal_xr26.json; ft_cfg=finetune_distill_motion_xr26.json ;;
+  causal) base_cfg=causal_xr26.json; ft_cfg=finetune_distill_motion_newest_xr26.json ;;
   dgn) base_cfg=dgn_causal_xr26.json; ft_cfg=dgn_finetune_distill_motion_xr26.json ;;
   stgae) base_cfg=stgae_causal_long_xr26.json; ft_cfg=stgae_finetune_fixed_norm_xr26.json
          ft_train="\"init\": \"$out/base.hsm\"" ;;

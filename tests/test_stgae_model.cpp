@@ -443,16 +443,21 @@ TEST_CASE("handsteady blend writes a model that loads and verifies, and refuses 
 TEST_CASE("the shipped causal, STGAE and DGN models are 0.3 x their base + 0.7 x their fine-tune (models/MODEL.md, models/base)") {
   const auto dir = hs::test::models_dir();
   // Each model's steps are named in models/MODEL.md's tables: since the evening of 2026-11-29 the causal
-  // model's are the `_long_` pair (its base on the full schedule), since 2026-11-30 STGAE's too; the other
-  // pairs in models/base are the steps of the models shipped before.
-  const std::array<std::pair<std::string, std::string>, 3> models{{{"causal", "_long"}, {"stgae", "_long"}, {"dgn", ""}}};
+  // model's base is the `_long_` one (the full schedule) and since the night of 2026-11-30 its fine-tune
+  // the `_newest_` one (loss.newest); STGAE's pair is `_long_` since 2026-11-30; the other files in
+  // models/base are the steps of the models shipped before.
+  struct Steps {
+    std::string name, base, finetune;
+  };
+  const std::array<Steps, 3> models{{{"causal", "_long", "_newest"}, {"stgae", "_long", "_long"}, {"dgn", "", ""}}};
   for (const auto& model : models) {
-    const auto& name = model.first;
+    const auto& name = model.name;
     CAPTURE(name);
     const auto stem = "handsteady_xr26_" + name;
-    const auto steps = stem + model.second;
-    const auto base = hs::read_hsm_file(dir / "base" / (steps + "_base.hsm"));
-    const auto finetune = hs::read_hsm_file(dir / "base" / (steps + "_finetune.hsm"));
+    const auto base_file = stem + model.base + "_base.hsm";
+    const auto finetune_file = stem + model.finetune + "_finetune.hsm";
+    const auto base = hs::read_hsm_file(dir / "base" / base_file);
+    const auto finetune = hs::read_hsm_file(dir / "base" / finetune_file);
     const auto shipped = hs::read_hsm_file(dir / (stem + ".hsm"));
     const auto blend = hs::blend_models(base, "base", finetune, "finetune", 0.7);
     REQUIRE(shipped.weights.tensors.size() == blend.weights.tensors.size());
@@ -462,8 +467,8 @@ TEST_CASE("the shipped causal, STGAE and DGN models are 0.3 x their base + 0.7 x
     }
     CHECK(nlohmann::json::parse(shipped.config.meta_json)["blend"]["alpha"] == 0.7);
     // Both steps are loadable models themselves (checksum and reference verified).
-    CHECK(hs::load_hsm(dir / "base" / (steps + "_base.hsm")));
-    CHECK(hs::load_hsm(dir / "base" / (steps + "_finetune.hsm")));
+    CHECK(hs::load_hsm(dir / "base" / base_file));
+    CHECK(hs::load_hsm(dir / "base" / finetune_file));
   }
 }
 
