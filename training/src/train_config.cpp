@@ -379,10 +379,15 @@ TrainConfig config_from_object(const json& j, const std::string& source, std::st
       if (!e.is_object() || !e.contains("epoch") || !e.at("epoch").is_number_integer())
         config_error(source, key, "expected {\"epoch\": e, \"bone\": w, ...}");
       LossWeights w = c.loss;
-      const std::map<std::string, double*> fields = {{"pose", &w.pose},     {"newest", &w.newest},     {"bone", &w.bone},
-                                                     {"symmetry", &w.symmetry}, {"smooth", &w.smooth},
-                                                     {"predict", &w.predict}, {"predict_smooth", &w.predict_smooth},
-                                                     {"distill", &w.distill}, {"distill_displacement", &w.distill_displacement}};
+      const std::map<std::string, double*> fields = {{"pose", &w.pose},
+                                                     {"newest", &w.newest},
+                                                     {"bone", &w.bone},
+                                                     {"symmetry", &w.symmetry},
+                                                     {"smooth", &w.smooth},
+                                                     {"predict", &w.predict},
+                                                     {"predict_smooth", &w.predict_smooth},
+                                                     {"distill", &w.distill},
+                                                     {"distill_displacement", &w.distill_displacement}};
       for (const auto& [k, v] : e.items()) {
         if (k == "epoch") continue;
         const auto it = fields.find(k);
@@ -400,8 +405,8 @@ TrainConfig config_from_object(const json& j, const std::string& source, std::st
   lo.finish();
   if (!(c.loss.relative_eps_mm >= 0 && std::isfinite(c.loss.relative_eps_mm)))
     config_error(source, "loss.relative_eps_mm", "must be finite and >= 0");
-  for (double w : {c.loss.pose, c.loss.newest, c.loss.bone, c.loss.symmetry, c.loss.smooth, c.loss.predict, c.loss.predict_smooth,
-                   c.loss.distill, c.loss.distill_displacement})
+  for (double w : {c.loss.pose, c.loss.newest, c.loss.bone, c.loss.symmetry, c.loss.smooth, c.loss.predict,
+                   c.loss.predict_smooth, c.loss.distill, c.loss.distill_displacement})
     if (!(w >= 0 && std::isfinite(w))) config_error(source, "loss", "weights must be finite and >= 0");
   bool distills = c.loss.distills();
   for (const auto& [e, w] : c.loss_stages) distills = distills || w.distills();
