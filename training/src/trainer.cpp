@@ -123,7 +123,7 @@ torch::Tensor per_window_mean(const torch::Tensor& t) { return t.reshape({t.size
 
 struct Losses {
   torch::Tensor total;
-  double pose = 0, newest = 0, bone = 0, sym = 0, smooth = 0, pred = 0, pred_smooth = 0, distill = 0;
+  double pose = 0, bone = 0, sym = 0, smooth = 0, pred = 0, pred_smooth = 0, distill = 0;
 };
 
 class LossFn {
@@ -160,9 +160,7 @@ class LossFn {
     auto total = w_.pose * pose;
     l.pose = pose.item<double>();
     if (w_.newest > 0) {
-      auto newest = wmean((X.narrow(1, T - 1, 1) - Xt.narrow(1, T - 1, 1)).pow(2)) * kCm2;
-      total = total + w_.newest * newest;
-      l.newest = newest.item<double>();
+      total = total + w_.newest * (wmean((X.narrow(1, T - 1, 1) - Xt.narrow(1, T - 1, 1)).pow(2)) * kCm2);
     }
     if (w_.bone > 0) {
       auto bone = wmean(edge_error(X, Xt, bone_a_, bone_b_)) * kCm2;
