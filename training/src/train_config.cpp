@@ -363,6 +363,7 @@ TrainConfig config_from_object(const json& j, const std::string& source, std::st
   Section lo(j, "loss", source);
   lo.get("pose", c.loss.pose);
   lo.get("newest", c.loss.newest);
+  lo.get("newest_by_speed", c.loss.newest_by_speed);
   lo.get("bone", c.loss.bone);
   lo.get("symmetry", c.loss.symmetry);
   lo.get("smooth", c.loss.smooth);

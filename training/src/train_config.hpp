@@ -20,6 +20,10 @@ struct LossWeights {
   // MSE of the window's newest denoised frame, the one a stream answers (the pose term
   // gives it 1/T of its weight; its error along the motion is the stream's lag).
   double newest = 0.0;
+  // The newest term per joint weighted by the truth joint's speed at that frame (divided by
+  // the batch's mean speed), to spend it where lag is: on fast joints. Tried, not shipped:
+  // it passes more tremor on moving hands (models/MODEL.md).
+  bool newest_by_speed = false;
   double bone = 1.0;      // (bone length error)^2 of the denoised window
   double symmetry = 0.1;  // (symmetry edge length error)^2
   double smooth = 0.0;    // (acceleration error)^2 of the denoised window

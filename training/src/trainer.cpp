@@ -160,7 +160,13 @@ class LossFn {
     auto total = w_.pose * pose;
     l.pose = pose.item<double>();
     if (w_.newest > 0) {
-      total = total + w_.newest * (wmean((X.narrow(1, T - 1, 1) - Xt.narrow(1, T - 1, 1)).pow(2)) * kCm2);
+      auto err = (X.narrow(1, T - 1, 1) - Xt.narrow(1, T - 1, 1)).pow(2);
+      if (w_.newest_by_speed && T >= 2) {
+        // A weight from the truth alone: no gradient flows through it.
+        const auto speed = (Xt.narrow(1, T - 1, 1) - Xt.narrow(1, T - 2, 1)).norm(2, -1, true).detach();
+        err = err * (speed / (speed.mean() + 1e-12));
+      }
+      total = total + w_.newest * (wmean(err) * kCm2);
     }
     if (w_.bone > 0) {
       auto bone = wmean(edge_error(X, Xt, bone_a_, bone_b_)) * kCm2;

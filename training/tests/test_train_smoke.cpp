@@ -646,11 +646,33 @@ TEST_CASE("two tiny epochs on synthetic motion: the loss decreases, the model fi
     const double term = val[1] - val[0];
     CHECK(term > 1e-4 * val[0]);
     CHECK(val[2] - val[0] == doctest::Approx(3 * term).epsilon(1e-3));
+
+    // loss.newest_by_speed: the same term with each joint's error weighted by the truth's
+    // speed over the batch's mean: still positive and linear in the weight, but another
+    // value (the error is not independent of the speed: the model lags fast joints).
+    nw.loss.newest_by_speed = true;
+    std::vector<double> sval;
+    for (double w : {1.0, 3.0}) {
+      nw.loss.newest = w;
+      TrainOptions o;
+      o.progress = false;
+      o.out = dir / "newest_speed.hsm";
+      std::ostringstream l;
+      const TrainResult rn = train_stgae(nw, o, l);
+      REQUIRE(rn.epochs.size() == 1);
+      sval.push_back(rn.epochs[0].val_loss);
+    }
+    const double sterm = sval[0] - val[0];
+    CHECK(sterm > 1e-4 * val[0]);
+    CHECK(sval[1] - val[0] == doctest::Approx(3 * sterm).epsilon(1e-3));
+    CHECK(std::abs(sterm - term) > 1e-3 * term);
   }
   CHECK(parse_train_config(R"({"model": {}, "loss": {"newest": 2, "stages": [{"epoch": 1, "newest": 0.5}]}})")
             .loss_stages[0]
             .second.newest == 0.5);
   CHECK(error_field(R"({"model": {}, "loss": {"newest": -1}})") == "loss");
+  CHECK(parse_train_config(R"({"model": {}, "loss": {"newest": 2, "newest_by_speed": true}})").loss.newest_by_speed);
+  CHECK(error_field(R"({"model": {}, "loss": {"newest_by_speed": 1}})") == "loss.newest_by_speed");
 
   // A checkpoint of another architecture is refused.
   TrainConfig other = config;
