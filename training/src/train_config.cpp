@@ -364,6 +364,7 @@ TrainConfig config_from_object(const json& j, const std::string& source, std::st
   lo.get("pose", c.loss.pose);
   lo.get("newest", c.loss.newest);
   lo.get("newest_by_speed", c.loss.newest_by_speed);
+  lo.get("newest_relative_eps_mm", c.loss.newest_relative_eps_mm);
   lo.get("bone", c.loss.bone);
   lo.get("symmetry", c.loss.symmetry);
   lo.get("smooth", c.loss.smooth);
@@ -406,6 +407,8 @@ TrainConfig config_from_object(const json& j, const std::string& source, std::st
   lo.finish();
   if (!(c.loss.relative_eps_mm >= 0 && std::isfinite(c.loss.relative_eps_mm)))
     config_error(source, "loss.relative_eps_mm", "must be finite and >= 0");
+  if (!(c.loss.newest_relative_eps_mm >= 0 && std::isfinite(c.loss.newest_relative_eps_mm)))
+    config_error(source, "loss.newest_relative_eps_mm", "must be finite and >= 0");
   for (double w : {c.loss.pose, c.loss.newest, c.loss.bone, c.loss.symmetry, c.loss.smooth, c.loss.predict,
                    c.loss.predict_smooth, c.loss.distill, c.loss.distill_displacement})
     if (!(w >= 0 && std::isfinite(w))) config_error(source, "loss", "weights must be finite and >= 0");

@@ -121,6 +121,15 @@ torch::Tensor second_difference(const torch::Tensor& p, int64_t dim) {
 // Mean over everything but the first (window) axis: [B, ...] -> [B].
 torch::Tensor per_window_mean(const torch::Tensor& t) { return t.reshape({t.size(0), -1}).mean(1); }
 
+// Per window [B]: 1 / (its input's mean squared joint error + eps^2), normalised to mean 1
+// over the batch (loss.relative_eps_mm, loss.newest_relative_eps_mm); no gradient.
+torch::Tensor relative_weights(const torch::Tensor& x, const torch::Tensor& truth, double eps_mm) {
+  torch::NoGradGuard no_grad;
+  const double eps_cm = eps_mm * 0.1;
+  const auto w = 1.0 / ((x - truth).pow(2).sum(-1).mean({1, 2}) * kCm2 + eps_cm * eps_cm);
+  return w / w.mean();
+}
+
 struct Losses {
   torch::Tensor total;
   double pose = 0, bone = 0, sym = 0, smooth = 0, pred = 0, pred_smooth = 0, distill = 0;
@@ -146,12 +155,7 @@ class LossFn {
     // error (+ eps^2), normalised to mean 1 over the batch, so nearly clean windows count
     // as much as heavily corrupted ones (a model must never be worse than clean input).
     torch::Tensor w;
-    if (w_.relative_eps_mm > 0) {
-      torch::NoGradGuard no_grad;
-      const double eps_cm = w_.relative_eps_mm * 0.1;
-      w = 1.0 / ((b.x - Xt).pow(2).sum(-1).mean({1, 2}) * kCm2 + eps_cm * eps_cm);
-      w = w / w.mean();
-    }
+    if (w_.relative_eps_mm > 0) w = relative_weights(b.x, Xt, w_.relative_eps_mm);
     const auto wmean = [&w](const torch::Tensor& err) {
       if (!w.defined()) return err.mean();
       return (per_window_mean(err) * w).mean();
@@ -166,7 +170,12 @@ class LossFn {
         const auto speed = (Xt.narrow(1, T - 1, 1) - Xt.narrow(1, T - 2, 1)).norm(2, -1, true).detach();
         err = err * (speed / (speed.mean() + 1e-12));
       }
-      total = total + w_.newest * (wmean(err) * kCm2);
+      // With its own relative weighting, the term goes to the windows whose input is close
+      // to the truth, where lag is most of the error, and not to the noisy ones.
+      const auto term = w_.newest_relative_eps_mm > 0
+                            ? (per_window_mean(err) * relative_weights(b.x, Xt, w_.newest_relative_eps_mm)).mean()
+                            : wmean(err);
+      total = total + w_.newest * (term * kCm2);
     }
     if (w_.bone > 0) {
       auto bone = wmean(edge_error(X, Xt, bone_a_, bone_b_)) * kCm2;

@@ -666,6 +666,27 @@ TEST_CASE("two tiny epochs on synthetic motion: the loss decreases, the model fi
     CHECK(sterm > 1e-4 * val[0]);
     CHECK(sval[1] - val[0] == doctest::Approx(3 * sterm).epsilon(1e-3));
     CHECK(std::abs(sterm - term) > 1e-3 * term);
+
+    // loss.newest_relative_eps_mm: the same term weighted per window by 1 / (its input's
+    // error + eps^2): positive, linear in the weight, another value (the windows' input
+    // errors differ: the config's corruption mix).
+    nw.loss.newest_by_speed = false;
+    nw.loss.newest_relative_eps_mm = 1.0;
+    std::vector<double> rval;
+    for (double w : {1.0, 3.0}) {
+      nw.loss.newest = w;
+      TrainOptions o;
+      o.progress = false;
+      o.out = dir / "newest_relative.hsm";
+      std::ostringstream l;
+      const TrainResult rn = train_stgae(nw, o, l);
+      REQUIRE(rn.epochs.size() == 1);
+      rval.push_back(rn.epochs[0].val_loss);
+    }
+    const double rterm = rval[0] - val[0];
+    CHECK(rterm > 1e-4 * val[0]);
+    CHECK(rval[1] - val[0] == doctest::Approx(3 * rterm).epsilon(1e-3));
+    CHECK(std::abs(rterm - term) > 1e-3 * term);
   }
   CHECK(parse_train_config(R"({"model": {}, "loss": {"newest": 2, "stages": [{"epoch": 1, "newest": 0.5}]}})")
             .loss_stages[0]
@@ -673,6 +694,7 @@ TEST_CASE("two tiny epochs on synthetic motion: the loss decreases, the model fi
   CHECK(error_field(R"({"model": {}, "loss": {"newest": -1}})") == "loss");
   CHECK(parse_train_config(R"({"model": {}, "loss": {"newest": 2, "newest_by_speed": true}})").loss.newest_by_speed);
   CHECK(error_field(R"({"model": {}, "loss": {"newest_by_speed": 1}})") == "loss.newest_by_speed");
+  CHECK(error_field(R"({"model": {}, "loss": {"newest_relative_eps_mm": -1}})") == "loss.newest_relative_eps_mm");
 
   // A checkpoint of another architecture is refused.
   TrainConfig other = config;
