@@ -25,8 +25,8 @@ struct LossWeights {
   // it passes more tremor on moving hands (models/MODEL.md).
   bool newest_by_speed = false;
   // > 0: the newest term alone weighted per window like relative_eps_mm (1 / (the input's
-  // mean squared joint error + this^2), mean 1 per batch): lag is most of the error where
-  // the input is clean; on noisy windows chasing the newest frame passes the noise on.
+  // mean squared joint error + this^2), mean 1 per batch), to spend it where the input is
+  // clean and lag is most of the error. Tried, not shipped: as above (models/MODEL.md).
   double newest_relative_eps_mm = 0.0;
   double bone = 1.0;      // (bone length error)^2 of the denoised window
   double symmetry = 0.1;  // (symmetry edge length error)^2
