@@ -632,61 +632,41 @@ TEST_CASE("two tiny epochs on synthetic motion: the loss decreases, the model fi
     nw.epochs = 1;
     nw.lr = {{0, 1e-12}};
     nw.init = out.string();
-    std::vector<double> val;
-    for (double w : {0.0, 1.0, 3.0}) {
-      nw.loss.newest = w;
-      TrainOptions o;
-      o.progress = false;
-      o.out = dir / "newest.hsm";
-      std::ostringstream l;
-      const TrainResult rn = train_stgae(nw, o, l);
-      REQUIRE(rn.epochs.size() == 1);
-      val.push_back(rn.epochs[0].val_loss);
-    }
-    const double term = val[1] - val[0];
-    CHECK(term > 1e-4 * val[0]);
-    CHECK(val[2] - val[0] == doctest::Approx(3 * term).epsilon(1e-3));
-
-    // loss.newest_by_speed: the same term with each joint's error weighted by the truth's
-    // speed over the batch's mean: still positive and linear in the weight, but another
-    // value (the error is not independent of the speed: the model lags fast joints).
-    nw.loss.newest_by_speed = true;
-    std::vector<double> sval;
-    for (double w : {1.0, 3.0}) {
-      nw.loss.newest = w;
-      TrainOptions o;
-      o.progress = false;
-      o.out = dir / "newest_speed.hsm";
-      std::ostringstream l;
-      const TrainResult rn = train_stgae(nw, o, l);
-      REQUIRE(rn.epochs.size() == 1);
-      sval.push_back(rn.epochs[0].val_loss);
-    }
-    const double sterm = sval[0] - val[0];
-    CHECK(sterm > 1e-4 * val[0]);
-    CHECK(sval[1] - val[0] == doctest::Approx(3 * sterm).epsilon(1e-3));
-    CHECK(std::abs(sterm - term) > 1e-3 * term);
-
-    // loss.newest_relative_eps_mm: the same term weighted per window by 1 / (its input's
-    // error + eps^2): positive, linear in the weight, another value (the windows' input
-    // errors differ: the config's corruption mix).
-    nw.loss.newest_by_speed = false;
-    nw.loss.newest_relative_eps_mm = 1.0;
-    std::vector<double> rval;
-    for (double w : {1.0, 3.0}) {
-      nw.loss.newest = w;
-      TrainOptions o;
-      o.progress = false;
-      o.out = dir / "newest_relative.hsm";
-      std::ostringstream l;
-      const TrainResult rn = train_stgae(nw, o, l);
-      REQUIRE(rn.epochs.size() == 1);
-      rval.push_back(rn.epochs[0].val_loss);
-    }
-    const double rterm = rval[0] - val[0];
-    CHECK(rterm > 1e-4 * val[0]);
-    CHECK(rval[1] - val[0] == doctest::Approx(3 * rterm).epsilon(1e-3));
-    CHECK(std::abs(rterm - term) > 1e-3 * term);
+    // The term's value at weight 1 (the validation loss at weights 1 and 3 less that at 0),
+    // checked positive and linear in the weight.
+    double base = 0;
+    const auto term = [&](const LossWeights& loss) {
+      std::vector<double> val;
+      for (double w : {0.0, 1.0, 3.0}) {
+        nw.loss = loss;
+        nw.loss.newest = w;
+        TrainOptions o;
+        o.progress = false;
+        o.out = dir / "newest.hsm";
+        std::ostringstream l;
+        const TrainResult rn = train_stgae(nw, o, l);
+        REQUIRE(rn.epochs.size() == 1);
+        val.push_back(rn.epochs[0].val_loss);
+      }
+      if (base == 0) base = val[0];
+      CHECK(val[0] == doctest::Approx(base).epsilon(1e-9));  // the weighting alone adds nothing
+      const double t = val[1] - val[0];
+      CHECK(t > 1e-4 * val[0]);
+      CHECK(val[2] - val[0] == doctest::Approx(3 * t).epsilon(1e-3));
+      return t;
+    };
+    const double plain = term(config.loss);
+    // loss.newest_by_speed: each joint's error weighted by the truth's speed over the
+    // batch's mean: another value (the error is not independent of the speed: the model
+    // lags fast joints).
+    LossWeights by_speed = config.loss;
+    by_speed.newest_by_speed = true;
+    CHECK(std::abs(term(by_speed) - plain) > 1e-3 * plain);
+    // loss.newest_relative_eps_mm: each window weighted by 1 / (its input's error + eps^2):
+    // another value (the windows' input errors differ: the config's corruption mix).
+    LossWeights relative = config.loss;
+    relative.newest_relative_eps_mm = 1.0;
+    CHECK(std::abs(term(relative) - plain) > 1e-3 * plain);
   }
   CHECK(parse_train_config(R"({"model": {}, "loss": {"newest": 2, "stages": [{"epoch": 1, "newest": 0.5}]}})")
             .loss_stages[0]
