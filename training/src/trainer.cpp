@@ -156,10 +156,12 @@ class LossFn {
     // as much as heavily corrupted ones (a model must never be worse than clean input).
     torch::Tensor w;
     if (w_.relative_eps_mm > 0) w = relative_weights(b.x, Xt, w_.relative_eps_mm);
-    const auto wmean = [&w](const torch::Tensor& err) {
-      if (!w.defined()) return err.mean();
-      return (per_window_mean(err) * w).mean();
+    // err's mean, each window weighted by weights when they are given.
+    const auto weighted_mean = [](const torch::Tensor& err, const torch::Tensor& weights) {
+      if (!weights.defined()) return err.mean();
+      return (per_window_mean(err) * weights).mean();
     };
+    const auto wmean = [&](const torch::Tensor& err) { return weighted_mean(err, w); };
     auto pose = wmean((X - Xt).pow(2)) * kCm2;
     auto total = w_.pose * pose;
     l.pose = pose.item<double>();
@@ -172,9 +174,8 @@ class LossFn {
       }
       // With its own relative weighting, the term goes to the windows whose input is close
       // to the truth, where lag is most of the error, and not to the noisy ones.
-      const auto term = w_.newest_relative_eps_mm > 0
-                            ? (per_window_mean(err) * relative_weights(b.x, Xt, w_.newest_relative_eps_mm)).mean()
-                            : wmean(err);
+      const auto term = weighted_mean(
+          err, w_.newest_relative_eps_mm > 0 ? relative_weights(b.x, Xt, w_.newest_relative_eps_mm) : w);
       total = total + w_.newest * (term * kCm2);
     }
     if (w_.bone > 0) {
