@@ -9,6 +9,8 @@
 # With ../shared/data present the hand pose comes from a real HoloLens 2 recording and
 # the FPHA subject 5 table is computed too (HS_DEMO_FPHA=0 skips it). HS_DEMO_MODEL=FILE.hsm
 # runs the layer, the app's prediction line and the FPHA table with that model instead of the shipped one.
+# HS_DEMO_SEED=N draws the tremor and tracker noise with seed N instead of 1 (the spread of
+# the demo's measures over noise draws).
 # HS_DEMO_NET=dgn runs the network panel (and the FPHA table's network rows) with the layer's
 # `dgn` method, the shipped DGN model, instead of Multi-STGAE (`stgae`).
 # Usage: scripts/demo.sh [extra handsteady_demo options, e.g. --window]
@@ -33,7 +35,7 @@ if [ -f "$hl2" ]; then
 else
   echo "demo: $hl2 not found; the parametric hand writes"
 fi
-$hs synth-handwriting --text "ISMAR" --tremor parkinson --seed 1 --out "$out/handwriting.csv" "${pose[@]}"
+$hs synth-handwriting --text "ISMAR" --tremor parkinson --seed "${HS_DEMO_SEED:-1}" --out "$out/handwriting.csv" "${pose[@]}"
 
 # 2. The OpenXR app through the real loader, the layer (its raw side channel gives the
 #    raw panel) and the replay runtime at 90 Hz, answering the newest sample (no
