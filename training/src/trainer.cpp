@@ -130,9 +130,10 @@ torch::Tensor relative_weights(const torch::Tensor& x, const torch::Tensor& trut
   return w / w.mean();
 }
 
+// The loss to minimise, and its distillation terms' value for the epoch log.
 struct Losses {
   torch::Tensor total;
-  double pose = 0, bone = 0, sym = 0, smooth = 0, pred = 0, pred_smooth = 0, distill = 0;
+  double distill = 0;
 };
 
 class LossFn {
@@ -164,7 +165,6 @@ class LossFn {
     const auto wmean = [&](const torch::Tensor& err) { return weighted_mean(err, w); };
     auto pose = wmean((X - Xt).pow(2)) * kCm2;
     auto total = w_.pose * pose;
-    l.pose = pose.item<double>();
     if (w_.newest > 0) {
       auto err = (X.narrow(1, T - 1, 1) - Xt.narrow(1, T - 1, 1)).pow(2);
       if (w_.newest_by_speed && T >= 2) {
@@ -181,17 +181,14 @@ class LossFn {
     if (w_.bone > 0) {
       auto bone = wmean(edge_error(X, Xt, bone_a_, bone_b_)) * kCm2;
       total = total + w_.bone * bone;
-      l.bone = bone.item<double>();
     }
     if (w_.symmetry > 0) {
       auto sym = wmean(edge_error(X, Xt, sym_a_, sym_b_)) * kCm2;
       total = total + w_.symmetry * sym;
-      l.sym = sym.item<double>();
     }
     if (w_.smooth > 0 && T >= 3) {
       auto smooth = wmean((second_difference(X, 1) - second_difference(Xt, 1)).pow(2)) * kCm2;
       total = total + w_.smooth * smooth;
-      l.smooth = smooth.item<double>();
     }
     if (with_pred && model_.predict) {
       const int DT = model_.horizon;
@@ -203,7 +200,6 @@ class LossFn {
         const auto Yt = b.truth.narrow(1, T - P + 1, P + DT - 1).unfold(1, DT, 1).permute({0, 1, 4, 2, 3});
         auto pred = (Y - Yt).pow(2).mean() * kCm2;
         total = total + w_.predict * pred;
-        l.pred = pred.item<double>();
         if (w_.predict_smooth > 0) {
           // Along each path: denoised t-1, t, then the DT predictions.
           auto path = [&](const torch::Tensor& den, const torch::Tensor& fut) {
@@ -215,12 +211,10 @@ class LossFn {
             ps = ps + (second_difference(Y, 1) - second_difference(Yt, 1)).pow(2).mean();
           ps = ps * kCm2;
           total = total + w_.predict_smooth * ps;
-          l.pred_smooth = ps.item<double>();
         }
       } else {
         auto pred = (Y - b.truth.narrow(1, T, DT)).pow(2).mean() * kCm2;
         total = total + w_.predict * pred;
-        l.pred = pred.item<double>();
       }
     }
     if (teacher && w_.distill > 0) {
