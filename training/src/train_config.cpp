@@ -155,6 +155,8 @@ std::vector<DataSource> parse_sources(const json& list, const std::string& sourc
         d.weight = checked<double>(v, source, at);
       } else if (name == "distill") {
         d.distill = checked<bool>(v, source, at);
+      } else if (name == "newest") {
+        d.newest = checked<bool>(v, source, at);
       } else {
         config_error(source, at, "unknown key");
       }
@@ -234,7 +236,8 @@ TrainConfig config_from_object(const json& j, const std::string& source, std::st
     c.train_sources = parse_sources(*train_src, source, "data.train");
     c.val_sources = parse_sources(*val_src, source, "data.val");
     for (const auto& [k, e] : entries(*val_src, source, "data.val", "sources"))
-      if (e->contains("distill")) config_error(source, k + ".distill", "only for training sources");
+      for (const char* flag : {"distill", "newest"})
+        if (e->contains(flag)) config_error(source, k + "." + flag, "only for training sources");
   }
 
   Section aug(j, "augment", source);
@@ -421,6 +424,13 @@ TrainConfig config_from_object(const json& j, const std::string& source, std::st
   if (!c.teacher.empty() && !marked)
     config_error(source, "train.teacher", "needs a data.train source with \"distill\": true");
   if (marked && c.teacher.empty()) config_error(source, "data.train", "\"distill\" needs train.teacher");
+  bool newest = c.loss.newest > 0;
+  for (const auto& [e, w] : c.loss_stages) newest = newest || w.newest > 0;
+  const bool skipped = std::any_of(c.train_sources.begin(), c.train_sources.end(), [](const DataSource& d) { return !d.newest; });
+  if (skipped && !newest) config_error(source, "data.train", "\"newest\": false needs a loss.newest weight > 0");
+  if (skipped && c.synthetic_takes == 0 &&
+      std::none_of(c.train_sources.begin(), c.train_sources.end(), [](const DataSource& d) { return d.newest; }))
+    config_error(source, "data.train", "\"newest\": false on every source leaves loss.newest nothing to score");
   return c;
 }
 

@@ -67,6 +67,9 @@ struct DataSource {
   double weight = 1.0;  // share of the training windows drawn from this source
   // Its windows are also taught the teacher model's answers (train.teacher, loss.distill).
   bool distill = false;
+  // Its windows count in loss.newest (false: the term skips them, e.g. object-holding
+  // mocap, whose tremor the term would teach the network to follow).
+  bool newest = true;
 };
 inline DataSource fpha_source(const std::filesystem::path& root, std::vector<int> subjects) {
   DataSource d;

@@ -49,6 +49,7 @@ struct Batch {
   torch::Tensor x;      // [B, T, N, 3] filled input
   torch::Tensor truth;  // [B, T + DT, N, 3]
   torch::Tensor distill;  // [B], 1 for windows taught the teacher's answers (loss.distill)
+  torch::Tensor newest;   // [B], 1 for windows loss.newest scores; undefined when it scores all
   std::vector<Eigen::RowVector3d> origin;  // per window, added back for metrics
 };
 
@@ -66,12 +67,14 @@ class BatchBuilder {
     tbuf_.reserve(static_cast<size_t>(capacity) * (T_ + DT_) * N * 3);
   }
   // false when the window is not valid input (nothing tracked in its first frame).
-  bool add(const Window& w, bool distill = false) {
+  bool add(const Window& w, bool distill = false, bool newest = true) {
     if (!input_features(w.input, c_.shape_scale_m, c_.velocity_scale_m, feat_.data(), filled_.data())) return false;
     const size_t last = static_cast<size_t>(T_ - 1) * N * 3 + static_cast<size_t>(idx(Joint::Wrist)) * 3;
     const Eigen::RowVector3d o(filled_[last], filled_[last + 1], filled_[last + 2]);
     origin_.push_back(o);
     dbuf_.push_back(distill ? 1.0f : 0.0f);
+    nbuf_.push_back(newest ? 1.0f : 0.0f);
+    all_newest_ = all_newest_ && newest;
     for (double v : feat_) fbuf_.push_back(static_cast<float>(v));
     for (size_t i = 0; i < filled_.size(); ++i) xbuf_.push_back(static_cast<float>(filled_[i] - o[static_cast<long>(i % 3)]));
     for (int t = 0; t < T_ + DT_; ++t)
@@ -87,9 +90,12 @@ class BatchBuilder {
     b.x = torch::from_blob(xbuf_.data(), {B, T_, N, 3}, torch::kFloat32).clone();
     b.truth = torch::from_blob(tbuf_.data(), {B, T_ + DT_, N, 3}, torch::kFloat32).clone();
     b.distill = torch::from_blob(dbuf_.data(), {B}, torch::kFloat32).clone();
+    if (!all_newest_) b.newest = torch::from_blob(nbuf_.data(), {B}, torch::kFloat32).clone();
     b.origin = std::move(origin_);
     origin_.clear();
     dbuf_.clear();
+    nbuf_.clear();
+    all_newest_ = true;
     fbuf_.clear();
     xbuf_.clear();
     tbuf_.clear();
@@ -100,8 +106,9 @@ class BatchBuilder {
   const StgaeConfig& c_;
   int T_, DT_;
   std::vector<double> feat_, filled_;
-  std::vector<float> fbuf_, xbuf_, tbuf_, dbuf_;
+  std::vector<float> fbuf_, xbuf_, tbuf_, dbuf_, nbuf_;
   std::vector<Eigen::RowVector3d> origin_;
+  bool all_newest_ = true;
 };
 
 // ---- losses ----------------------------------------------------------------------------
@@ -174,8 +181,11 @@ class LossFn {
       }
       // With its own relative weighting, the term goes to the windows whose input is close
       // to the truth, where lag is most of the error, and not to the noisy ones.
-      const auto term = weighted_mean(
-          err, w_.newest_relative_eps_mm > 0 ? relative_weights(b.x, Xt, w_.newest_relative_eps_mm) : w);
+      auto nw = w_.newest_relative_eps_mm > 0 ? relative_weights(b.x, Xt, w_.newest_relative_eps_mm) : w;
+      // Windows of sources marked "newest": false count as zero, still divided by all
+      // windows (as loss.distill), so the weight is per window drawn.
+      if (b.newest.defined()) nw = nw.defined() ? nw * b.newest : b.newest;
+      const auto term = weighted_mean(err, nw);
       total = total + w_.newest * (term * kCm2);
     }
     if (w_.bone > 0) {
@@ -577,6 +587,9 @@ TrainResult train_stgae(const TrainConfig& cfg, const TrainOptions& opt, std::os
     teacher->train(!c.fixed_norm);
     log << "teacher " << c.teacher << " for the windows of the sources marked \"distill\"\n";
   }
+  if (const auto skipped = std::count_if(c.train_sources.begin(), c.train_sources.end(),
+                                         [](const DataSource& d) { return !d.newest; }))
+    log << "loss.newest leaves out the windows of " << skipped << " source(s) marked \"newest\": false\n";
   if (opt.resume) {
     torch::serialize::InputArchive ar;
     try {
@@ -637,7 +650,8 @@ TrainResult train_stgae(const TrainConfig& cfg, const TrainOptions& opt, std::os
         const Window w = sampler.draw(rng);
         // Groups are the training sources in order (one group for synthetic motion).
         const auto g = static_cast<size_t>(w.group);
-        builder.add(w, teacher && g < c.train_sources.size() && c.train_sources[g].distill);
+        const bool real = g < c.train_sources.size();
+        builder.add(w, teacher && real && c.train_sources[g].distill, !real || c.train_sources[g].newest);
       }
       const Batch b = builder.take();
       data_s += since(td);

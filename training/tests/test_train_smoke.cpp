@@ -11,6 +11,7 @@
 #include "handsteady/skeleton.hpp"
 #include "handsteady/stgae_model.hpp"
 #include "handsteady/synth.hpp"
+#include "handsteady/track.hpp"
 
 #include <sys/wait.h>
 #include <unistd.h>
@@ -668,6 +669,50 @@ TEST_CASE("two tiny epochs on synthetic motion: the loss decreases, the model fi
     relative.newest_relative_eps_mm = 1.0;
     CHECK(std::abs(term(relative) - plain) > 1e-3 * plain);
   }
+  // A source marked "newest": false: its windows count zero in the term, still divided by
+  // every window, so on the same batches (the flag draws nothing) the term with one source
+  // off plus the term with the other off is the term with both on. The training loss, not
+  // validation's (validation windows always count), at a learning rate that moves nothing.
+  {
+    SynthMotionParams mp;
+    mp.duration_s = 8;
+    for (int k = 0; k < 3; ++k) {
+      Track track;
+      add_hand_series(track, Hand::Right, synth_motion(mp, Hand::Right, 11 + static_cast<uint64_t>(k)));
+      write_track_csv(track, dir / ("src" + std::to_string(k) + ".csv"));
+    }
+    const auto src = [&](int k) { return (dir / ("src" + std::to_string(k) + ".csv")).string(); };
+    std::string text = kTinyConfig;
+    const std::string synthetic = R"("data": {"synthetic_takes": 4, "synthetic_seconds": 8})";
+    text.replace(text.find(synthetic), synthetic.size(),
+                 R"("data": {"train": {"a": {"path": ")" + src(0) + R"("}, "b": {"path": ")" + src(1) +
+                     R"("}}, "val": [{"path": ")" + src(2) + R"("}]})");
+    TrainConfig files = parse_train_config(text);
+    files.epochs = 1;
+    files.lr = {{0, 1e-12}};
+    files.init = out.string();
+    const auto train_term = [&](bool a, bool b) {
+      files.train_sources[0].newest = a;
+      files.train_sources[1].newest = b;
+      double loss[2];
+      for (int i = 0; i < 2; ++i) {
+        files.loss.newest = i;
+        TrainOptions o;
+        o.progress = false;
+        o.out = dir / "sources.hsm";
+        std::ostringstream l;
+        const TrainResult rn = train_stgae(files, o, l);
+        REQUIRE(rn.epochs.size() == 1);
+        loss[i] = rn.epochs[0].train_loss;
+      }
+      return loss[1] - loss[0];
+    };
+    const double both = train_term(true, true), only_a = train_term(true, false), only_b = train_term(false, true);
+    CHECK(both > 1e-4);
+    CHECK(only_a > 0.05 * both);
+    CHECK(only_b > 0.05 * both);
+    CHECK(only_a + only_b == doctest::Approx(both).epsilon(1e-4));
+  }
   CHECK(parse_train_config(R"({"model": {}, "loss": {"newest": 2, "stages": [{"epoch": 1, "newest": 0.5}]}})")
             .loss_stages[0]
             .second.newest == 0.5);
@@ -675,6 +720,19 @@ TEST_CASE("two tiny epochs on synthetic motion: the loss decreases, the model fi
   CHECK(parse_train_config(R"({"model": {}, "loss": {"newest": 2, "newest_by_speed": true}})").loss.newest_by_speed);
   CHECK(error_field(R"({"model": {}, "loss": {"newest_by_speed": 1}})") == "loss.newest_by_speed");
   CHECK(error_field(R"({"model": {}, "loss": {"newest_relative_eps_mm": -1}})") == "loss.newest_relative_eps_mm");
+  // "newest" per training source: a flag, only for training sources, and only with the term.
+  const std::string two = R"("data": {"train": [{"path": "x", "newest": false}, {"path": "z"}], "val": [{"path": "y"}]})";
+  CHECK(!parse_train_config(R"({"model": {}, )" + two + R"(, "loss": {"newest": 2}})").train_sources[0].newest);
+  CHECK(parse_train_config(R"({"model": {}, )" + two + R"(, "loss": {"newest": 2}})").train_sources[1].newest);
+  CHECK(parse_train_config(R"({"model": {}, )" + two + R"(, "loss": {"stages": [{"epoch": 1, "newest": 1}]}})")
+            .train_sources.size() == 2);
+  CHECK(error_field(R"({"model": {}, )" + two + R"(})") == "data.train");
+  CHECK(error_field(R"({"model": {}, "data": {"train": [{"path": "x", "newest": false}], "val": [{"path": "y"}]},
+                        "loss": {"newest": 1}})") == "data.train");
+  CHECK(error_field(R"({"model": {}, "data": {"train": [{"path": "x", "newest": 0}], "val": [{"path": "y"}]}})") ==
+        "data.train[0].newest");
+  CHECK(error_field(R"({"model": {}, "data": {"train": [{"path": "x"}], "val": [{"path": "y", "newest": true}]}})") ==
+        "data.val[0].newest");
 
   // A checkpoint of another architecture is refused.
   TrainConfig other = config;
