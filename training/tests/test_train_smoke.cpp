@@ -66,6 +66,17 @@ std::string train_error(const TrainConfig& config, const TrainOptions& opt) {
   return "";
 }
 
+// The report of a one-epoch run of config (its model written to out).
+EpochReport one_epoch(const TrainConfig& config, const std::filesystem::path& out) {
+  TrainOptions o;
+  o.progress = false;
+  o.out = out;
+  std::ostringstream log;
+  const TrainResult r = train_stgae(config, o, log);
+  REQUIRE(r.epochs.size() == 1);
+  return r.epochs[0];
+}
+
 // The key a config error names ("(no error)" when the config parses).
 std::string error_field(const std::string& text) {
   try {
@@ -641,13 +652,7 @@ TEST_CASE("two tiny epochs on synthetic motion: the loss decreases, the model fi
       for (double w : {0.0, 1.0, 3.0}) {
         nw.loss = loss;
         nw.loss.newest = w;
-        TrainOptions o;
-        o.progress = false;
-        o.out = dir / "newest.hsm";
-        std::ostringstream l;
-        const TrainResult rn = train_stgae(nw, o, l);
-        REQUIRE(rn.epochs.size() == 1);
-        val.push_back(rn.epochs[0].val_loss);
+        val.push_back(one_epoch(nw, dir / "newest.hsm").val_loss);
       }
       if (base == 0) base = val[0];
       CHECK(val[0] == doctest::Approx(base).epsilon(1e-9));  // the weighting alone adds nothing
@@ -697,13 +702,7 @@ TEST_CASE("two tiny epochs on synthetic motion: the loss decreases, the model fi
       double loss[2];
       for (int i = 0; i < 2; ++i) {
         files.loss.newest = i;
-        TrainOptions o;
-        o.progress = false;
-        o.out = dir / "sources.hsm";
-        std::ostringstream l;
-        const TrainResult rn = train_stgae(files, o, l);
-        REQUIRE(rn.epochs.size() == 1);
-        loss[i] = rn.epochs[0].train_loss;
+        loss[i] = one_epoch(files, dir / "sources.hsm").train_loss;
       }
       return loss[1] - loss[0];
     };
