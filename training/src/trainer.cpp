@@ -74,7 +74,6 @@ class BatchBuilder {
     origin_.push_back(o);
     dbuf_.push_back(distill ? 1.0f : 0.0f);
     nbuf_.push_back(newest ? 1.0f : 0.0f);
-    all_newest_ = all_newest_ && newest;
     for (double v : feat_) fbuf_.push_back(static_cast<float>(v));
     for (size_t i = 0; i < filled_.size(); ++i) xbuf_.push_back(static_cast<float>(filled_[i] - o[static_cast<long>(i % 3)]));
     for (int t = 0; t < T_ + DT_; ++t)
@@ -90,12 +89,11 @@ class BatchBuilder {
     b.x = torch::from_blob(xbuf_.data(), {B, T_, N, 3}, torch::kFloat32).clone();
     b.truth = torch::from_blob(tbuf_.data(), {B, T_ + DT_, N, 3}, torch::kFloat32).clone();
     b.distill = torch::from_blob(dbuf_.data(), {B}, torch::kFloat32).clone();
-    if (!all_newest_) b.newest = torch::from_blob(nbuf_.data(), {B}, torch::kFloat32).clone();
+    if (std::find(nbuf_.begin(), nbuf_.end(), 0.0f) != nbuf_.end()) b.newest = torch::from_blob(nbuf_.data(), {B}, torch::kFloat32).clone();
     b.origin = std::move(origin_);
     origin_.clear();
     dbuf_.clear();
     nbuf_.clear();
-    all_newest_ = true;
     fbuf_.clear();
     xbuf_.clear();
     tbuf_.clear();
@@ -108,7 +106,6 @@ class BatchBuilder {
   std::vector<double> feat_, filled_;
   std::vector<float> fbuf_, xbuf_, tbuf_, dbuf_, nbuf_;
   std::vector<Eigen::RowVector3d> origin_;
-  bool all_newest_ = true;
 };
 
 // ---- losses ----------------------------------------------------------------------------
