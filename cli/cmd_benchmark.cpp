@@ -6,6 +6,7 @@
 #include "handsteady/benchmark.hpp"
 #include "handsteady/error.hpp"
 #include "handsteady/model_path.hpp"
+#include "handsteady/source_revision.hpp"
 #include "handsteady/stgae_model.hpp"
 #ifdef HS_HAVE_HANDWRITING
 #include "handsteady/handwriting.hpp"
@@ -53,6 +54,7 @@ void run_benchmark(const BenchmarkOptions& o, const std::string& command) {
   const auto t_start = std::chrono::steady_clock::now();
   bench::Report report;
   report.command = command;
+  report.revision = hs::source_revision();
   bench::Options run = o.run;
   std::mutex progress_mu;
   if (!o.quiet)

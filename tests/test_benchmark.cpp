@@ -396,6 +396,12 @@ TEST_CASE("handsteady benchmark --quick on the shared recordings writes the repo
   CHECK(j["results"].size() > 100);
   CHECK(!j["oneeuro_curve"].empty());
   CHECK(!j["recorded_curves"].empty());
+  // The report names the code it was made with, as `handsteady --version` does.
+  const std::string revision = j["revision"].get<std::string>();
+  CHECK(!revision.empty());
+  CHECK(md.find("at revision `" + revision + "`") != std::string::npos);
+  REQUIRE(test::run_cli("--version > \"" + (dir / "version.txt").string() + "\"") == 0);
+  CHECK(slurp(dir / "version.txt").find("(revision " + revision + ")") != std::string::npos);
   CHECK(test::run_cli("benchmark --quick --data /nonexistent --out \"" + dir.string() + "\" 2> /dev/null") != 0);
   std::filesystem::remove_all(dir);
 }

@@ -9,11 +9,14 @@
 #include "handsteady/hsm_format.hpp"
 #include "handsteady/metrics.hpp"
 #include "handsteady/skeleton.hpp"
+#include "handsteady/source_revision.hpp"
 #include "handsteady/synth.hpp"
 
+#include <ATen/Version.h>
 #include <nlohmann/json.hpp>
 #include <torch/torch.h>
 
+#include <dlfcn.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -32,6 +35,26 @@ namespace {
 
 // The model's meta keeps the config in the order its file gave it.
 using json = nlohmann::ordered_json;
+
+// The CPU kernels that fix the order of the training's floating-point sums: libtorch's
+// vector capability (ATEN_CPU_CAPABILITY chooses another) and the BLAS, for OpenBLAS its
+// core (OPENBLAS_CORETYPE). At one revision, config and thread count they decide the
+// weights' bits; a host that picks other ones trains other bits (docs/TRAINING.md
+// "Reproducibility").
+json cpu_kernels_json() {
+  std::string capability = "unknown";
+  const std::string config = at::show_config();
+  const std::string key = "CPU capability usage: ";
+  if (const auto at = config.find(key); at != std::string::npos) {
+    const auto from = at + key.size();
+    capability = config.substr(from, config.find('\n', from) - from);
+  }
+  std::string blas = "not OpenBLAS";
+  using CoreName = char* (*)();
+  if (const auto core = reinterpret_cast<CoreName>(dlsym(RTLD_DEFAULT, "openblas_get_corename")))
+    blas = std::string("OpenBLAS ") + core();
+  return {{"aten_cpu_capability", capability}, {"blas", blas}};
+}
 
 }  // namespace
 
@@ -523,7 +546,8 @@ TrainResult train_stgae(const TrainConfig& cfg, const TrainOptions& opt, std::os
   size_t n_params = 0;
   for (const auto& p : net->parameters()) n_params += static_cast<size_t>(p.numel());
   log << "model: " << n_params << " parameters, " << (c.model.padding == StgaePadding::Causal ? "causal" : "centred")
-      << ", T " << T << ", DT " << DT << ", training sequences of " << L << " frames, threads " << torch::get_num_threads() << "\n";
+      << ", T " << T << ", DT " << DT << ", training sequences of " << L << " frames, threads " << torch::get_num_threads()
+      << ", CPU kernels " << cpu_kernels_json().dump() << "\n";
   // Frozen parameters (train.freeze) get no gradient, and their modules stay in eval mode
   // below so that their BatchNorm statistics stay as they were.
   const auto frozen = [&](const std::string& name) {
@@ -700,7 +724,11 @@ TrainResult train_stgae(const TrainConfig& cfg, const TrainOptions& opt, std::os
                    {"val_loss", rep.val_loss},
                    {"validation", metrics_json(rep.val)},
                    {"wall_s", since(run_t0)},
-                   {"threads", torch::get_num_threads()}};
+                   {"threads", torch::get_num_threads()},
+                   // The code matters as much as the config: the same config and seed give the same
+                   // weights at one revision, not across revisions (docs/TRAINING.md "Reproducibility").
+                   {"source", {{"revision", source_revision()}}},
+                   {"cpu_kernels", cpu_kernels_json()}};
       save_model(*net, c, opt.out, val.front().windows.front(), meta);
     }
     {

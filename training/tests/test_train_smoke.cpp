@@ -8,7 +8,9 @@
 
 #include "handsteady/dgn_layers.hpp"
 #include "handsteady/error.hpp"
+#include "handsteady/hsm_format.hpp"
 #include "handsteady/skeleton.hpp"
+#include "handsteady/source_revision.hpp"
 #include "handsteady/stgae_model.hpp"
 #include "handsteady/synth.hpp"
 #include "handsteady/track.hpp"
@@ -885,6 +887,44 @@ std::string tiny_dgn_config(int freeze) {
          std::to_string(freeze) + R"(},
   "loss": {"bone": 1, "smooth": 0.1, "stages": [{"epoch": 0, "bone": 0.2, "smooth": 0}, {"epoch": 2, "bone": 0.6}]}
 })";
+}
+
+// What makes a shipped model reproducible from its record: at one revision the same config,
+// seed and thread count give the same weights, bit for bit, on one host; another seed gives
+// others (so the comparison can tell); the meta names the revision and the CPU kernels that
+// order the sums (docs/TRAINING.md "Reproducibility").
+TEST_CASE("training repeats bit for bit at one revision (same config, seed, threads), and its meta names the revision and CPU kernels") {
+  const auto dir = temp_dir("repeat");
+  TrainConfig config = parse_train_config(kTinyConfig, "tiny");
+  config.epochs = 1;
+  const auto weights_of = [&](const TrainConfig& c, const std::string& name) {
+    (void)one_epoch(c, dir / name);
+    return read_hsm_file(dir / name);
+  };
+  const HsmContents a = weights_of(config, "a.hsm");
+  const HsmContents b = weights_of(config, "b.hsm");
+  TrainConfig other = config;
+  other.seed += 1;
+  const HsmContents c = weights_of(other, "c.hsm");
+  REQUIRE(!a.weights.tensors.empty());
+  REQUIRE(a.weights.tensors.size() == b.weights.tensors.size());
+  int same_as_other_seed = 0;
+  for (const auto& [name, t] : a.weights.tensors) {
+    CAPTURE(name);
+    CHECK(b.weights.at(name).data == t.data);
+    same_as_other_seed += c.weights.at(name).data == t.data ? 1 : 0;
+  }
+  // The initial weights and the batches are the seed's draws: (almost) every tensor differs.
+  CHECK(same_as_other_seed < static_cast<int>(a.weights.tensors.size()) / 10);
+  const std::string revision = source_revision();
+  CHECK(!revision.empty());
+  CHECK(a.config.meta_json.find("\"source\"") != std::string::npos);
+  CHECK(a.config.meta_json.find("\"" + revision + "\"") != std::string::npos);
+  // The kernels that order the sums (another host may pick others): libtorch's capability
+  // as it reports it, and the BLAS.
+  CHECK(a.config.meta_json.find("\"cpu_kernels\"") != std::string::npos);
+  CHECK(a.config.meta_json.find("\"aten_cpu_capability\"") != std::string::npos);
+  CHECK(a.config.meta_json.find("\"aten_cpu_capability\": \"unknown\"") == std::string::npos);
 }
 
 TEST_CASE("DGN training: loss stages apply from their epoch, the first stage keeps S and T at D^-1 S0, D^-1 T0") {

@@ -248,7 +248,11 @@ std::string occluded_table(const Report& r) {
 std::string report_markdown(const Report& r, const Options& o) {
   const Index ix = index_of(r);
   std::string s = "# HandSteady benchmark\n\n";
-  if (!r.command.empty()) s += fmt::format("Made by `{}`.\n\n", r.command);
+  if (!r.command.empty()) {
+    s += fmt::format("Made by `{}`", r.command);
+    if (!r.revision.empty()) s += fmt::format(" at revision `{}`", r.revision);
+    s += ".\n\n";
+  }
   const std::string took = r.total_seconds > 0 ? fmt::format("{:.0f} s in all ({:.0f} s the grid)", r.total_seconds, r.seconds)
                                                 : fmt::format("{:.0f} s", r.seconds);
   s += fmt::format("Grid: {} cells × {} methods, seed {}, {}; {} on {} threads. Units: mm, ms; jitter = mean "
@@ -397,6 +401,7 @@ std::string report_json(const Report& r, const Options& o) {
   };
   json j;
   j["command"] = r.command;
+  j["revision"] = r.revision;
   j["quick"] = o.quick;
   j["tuning_split"] = o.tuning_split;
   j["seed"] = o.seed;

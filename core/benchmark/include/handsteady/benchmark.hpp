@@ -163,6 +163,7 @@ struct Report {
   std::vector<std::string> methods;  // in the order given
   std::vector<std::string> models;   // those that are learnt models (the criteria are checked for them)
   std::string command;               // how the report was made (for its header)
+  std::string revision;              // the code it was made with (hs::source_revision(), set by the caller)
   bool tuning_split = false;         // the scored sets are the tuning split (Options::tuning_split)
   double seconds = 0;
   double total_seconds = 0;  // the whole run: loading the sets, tuning, the grid (set by the caller)

@@ -1,0 +1,9 @@
+#include "handsteady/source_revision.hpp"
+
+#include "handsteady_revision_value.hpp"
+
+namespace hs {
+
+const char* source_revision() noexcept { return HS_SOURCE_REVISION; }
+
+}  // namespace hs
