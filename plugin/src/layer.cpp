@@ -15,6 +15,7 @@
 #include <openxr/openxr.h>
 #include <openxr/openxr_platform.h>
 
+#include "handsteady/source_revision.hpp"
 #include "handsteady/track.hpp"
 #include "handsteady_xr/loader_negotiation.hpp"
 #include "handsteady_xr/raw_joints_ext.h"
@@ -685,7 +686,8 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateApiLayerInstance(const XrInstanceCreateInfo
       log(LogLevel::Warn, "runtime lacks core space functions: passing everything through");
       d->config.mode = Mode::Off;
     }
-    log(LogLevel::Info, fmt::format("{} build, mode {}, engine {}, horizon {} ms, hand tracking {}", HS_LAYER_ISA,
+    log(LogLevel::Info, fmt::format("{} build of revision {}, mode {}, engine {}, horizon {} ms, hand tracking {}",
+                                    HS_LAYER_ISA, hs::source_revision(),
                                     mode_name(d->config.mode),
                                     engine_name(d->config),
                                     static_cast<double>(d->config.horizon_ns) * 1e-6,

@@ -2,6 +2,7 @@
 // [core validation] -> replay runtime. Each test case runs in its own process (CTest),
 // so each may create its own XrInstance (the 1.0.20 loader allows one at a time).
 #include "handsteady/skeleton.hpp"
+#include "handsteady/source_revision.hpp"
 #include "handsteady/track_ops.hpp"
 #include "handsteady_xr/xr_math.hpp"
 #include "test_support.hpp"
@@ -10,7 +11,11 @@
 
 #include <doctest/doctest.h>
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <sstream>
@@ -236,6 +241,33 @@ TEST_CASE("the layer hands over to its x86-64-v3 build on a CPU that has it") {
   __builtin_cpu_init();
   CHECK(v3_build_mapped() == (__builtin_cpu_supports("x86-64-v3") != 0));
 #endif
+}
+
+// What a bug report quotes: the info line at xrCreateInstance names the build and the
+// source revision (the layer's own copy of it, which must be this build's).
+TEST_CASE("the layer's info log names its build and the source revision it was built from") {
+  const TrackFiles f = make_tracks("revision", 1.0);
+  reset_env(f);
+  set_env("HANDSTEADY_LOG", "info");
+  enable_layers({kLayer});
+  const auto log = f.dir / "stderr.txt";
+  std::fflush(stderr);
+  const int saved = ::dup(2);
+  const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  REQUIRE(saved >= 0);
+  REQUIRE(fd >= 0);
+  ::dup2(fd, 2);
+  ::close(fd);
+  {
+    App app;
+    app.shutdown();
+  }
+  std::fflush(stderr);
+  ::dup2(saved, 2);
+  ::close(saved);
+  const std::string text = read_file(log);
+  INFO(text);
+  CHECK(text.find(std::string(" build of revision ") + hs::source_revision() + ", mode ") != std::string::npos);
 }
 
 TEST_CASE("the layer's baseline build runs when asked (HANDSTEADY_ISA=baseline)") {
