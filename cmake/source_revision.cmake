@@ -1,14 +1,20 @@
-# Script mode (cmake -DSRC=<checkout> -DOUT=<header> -P source_revision.cmake), run at every
-# build by the hs_source_revision_header target (core/revision/): writes the checkout's git
-# commit, with "-dirty" when a tracked or untracked (not ignored) file differs from it, or
-# "unknown" outside a git checkout. The header is rewritten only when that changes, so a
+# Script mode (cmake -DSRC=<checkout> -DBIN=<build dir> -DOUT=<header> -P source_revision.cmake),
+# run at every build by the hs_source_revision_header target (core/revision/): writes the
+# checkout's git commit, with "-dirty" when a tracked or untracked (not ignored) file differs
+# from it, or "unknown" outside a git checkout. The build folder itself does not count, even
+# where .gitignore does not name it. The header is rewritten only when that changes, so a
 # build at the same revision recompiles nothing.
 execute_process(COMMAND git -C "${SRC}" rev-parse --verify HEAD
                 OUTPUT_VARIABLE rev RESULT_VARIABLE rc OUTPUT_STRIP_TRAILING_WHITESPACE ERROR_QUIET)
 if(NOT rc EQUAL 0 OR rev STREQUAL "")
   set(rev "unknown")
 else()
-  execute_process(COMMAND git -C "${SRC}" status --porcelain
+  set(exclude "")
+  file(RELATIVE_PATH bin_rel "${SRC}" "${BIN}")
+  if(NOT bin_rel STREQUAL "" AND NOT bin_rel MATCHES "^\\.\\.")
+    set(exclude ":(exclude)${bin_rel}")
+  endif()
+  execute_process(COMMAND git -C "${SRC}" status --porcelain -- . ${exclude}
                   OUTPUT_VARIABLE changes RESULT_VARIABLE rc OUTPUT_STRIP_TRAILING_WHITESPACE ERROR_QUIET)
   if(NOT rc EQUAL 0)
     set(rev "${rev}-unknown-state")

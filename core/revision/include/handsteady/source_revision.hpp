@@ -6,8 +6,8 @@
 namespace hs {
 
 // The git commit (40 hex digits), followed by "-dirty" when the checkout had changed or
-// untracked files at build time; "unknown" when it was built outside a git checkout.
-// Refreshed at every build (cmake/source_revision.cmake).
+// untracked files (the build folder aside) at build time; "unknown" when it was built
+// outside a git checkout. Refreshed at every build (cmake/source_revision.cmake).
 const char* source_revision() noexcept;
 
 }  // namespace hs
