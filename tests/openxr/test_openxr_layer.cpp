@@ -11,11 +11,7 @@
 
 #include <doctest/doctest.h>
 
-#include <fcntl.h>
-#include <unistd.h>
-
 #include <cmath>
-#include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <sstream>
@@ -251,20 +247,11 @@ TEST_CASE("the layer's info log names its build and the source revision it was b
   set_env("HANDSTEADY_LOG", "info");
   enable_layers({kLayer});
   const auto log = f.dir / "stderr.txt";
-  std::fflush(stderr);
-  const int saved = ::dup(2);
-  const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  REQUIRE(saved >= 0);
-  REQUIRE(fd >= 0);
-  ::dup2(fd, 2);
-  ::close(fd);
   {
+    test::StderrToFile to_log(log);
     App app;
     app.shutdown();
   }
-  std::fflush(stderr);
-  ::dup2(saved, 2);
-  ::close(saved);
   const std::string text = read_file(log);
   INFO(text);
   CHECK(text.find(std::string(" build of revision ") + hs::source_revision() + ", mode ") != std::string::npos);

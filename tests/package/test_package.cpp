@@ -26,6 +26,7 @@
 
 namespace fs = std::filesystem;
 using namespace hs::xrtest;
+using hs::test::StderrToFile;
 
 namespace {
 
@@ -84,28 +85,6 @@ std::vector<fs::path> files_containing(const fs::path& dir, const std::string& n
     if (e.is_regular_file() && slurp(e.path()).find(needle) != std::string::npos) hits.push_back(e.path());
   return hits;
 }
-
-// This process's stderr (where the layer logs) goes to `file` while the object lives.
-class StderrToFile {
- public:
-  explicit StderrToFile(const fs::path& file) : saved_(::dup(STDERR_FILENO)) {
-    std::fflush(stderr);
-    const int fd = ::open(file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    REQUIRE(fd >= 0);
-    ::dup2(fd, STDERR_FILENO);
-    ::close(fd);
-  }
-  ~StderrToFile() {
-    std::fflush(stderr);
-    ::dup2(saved_, STDERR_FILENO);
-    ::close(saved_);
-  }
-  StderrToFile(const StderrToFile&) = delete;
-  StderrToFile& operator=(const StderrToFile&) = delete;
-
- private:
-  int saved_;
-};
 
 // Files mapped into this process whose path contains `name` (/proc/self/maps).
 std::vector<std::string> mapped(const std::string& name) {
