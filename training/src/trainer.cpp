@@ -545,9 +545,10 @@ TrainResult train_stgae(const TrainConfig& cfg, const TrainOptions& opt, std::os
   auto net = std::make_shared<StgaeNetImpl>(c.model);
   size_t n_params = 0;
   for (const auto& p : net->parameters()) n_params += static_cast<size_t>(p.numel());
+  const json cpu_kernels = cpu_kernels_json();  // once: it does not change within a run
   log << "model: " << n_params << " parameters, " << (c.model.padding == StgaePadding::Causal ? "causal" : "centred")
       << ", T " << T << ", DT " << DT << ", training sequences of " << L << " frames, threads " << torch::get_num_threads()
-      << ", CPU kernels " << cpu_kernels_json().dump() << "\n";
+      << ", CPU kernels " << cpu_kernels.dump() << "\n";
   // Frozen parameters (train.freeze) get no gradient, and their modules stay in eval mode
   // below so that their BatchNorm statistics stay as they were.
   const auto frozen = [&](const std::string& name) {
@@ -728,7 +729,7 @@ TrainResult train_stgae(const TrainConfig& cfg, const TrainOptions& opt, std::os
                    // The code matters as much as the config: the same config and seed give the same
                    // weights at one revision, not across revisions (docs/TRAINING.md "Reproducibility").
                    {"source", {{"revision", source_revision()}}},
-                   {"cpu_kernels", cpu_kernels_json()}};
+                   {"cpu_kernels", cpu_kernels}};
       save_model(*net, c, opt.out, val.front().windows.front(), meta);
     }
     {
