@@ -22,7 +22,7 @@ const std::vector<CommandSetup>& registered_commands() { return registry(); }
 int main(int argc, char** argv) {
   CLI::App app{"HandSteady: steady, ahead-of-time XR hand tracking (Multi-STGAE, classical filters, OpenXR layer)"};
   app.require_subcommand(1);
-  app.set_version_flag("--version", std::string("handsteady 0.1.0 (revision ") + hs::source_revision() + ")");
+  app.set_version_flag("--version", std::string("handsteady ") + hs::project_version() + " (revision " + hs::source_revision() + ")");
   for (auto setup : hs::cli::registered_commands()) setup(app);
   try {
     app.parse(argc, argv);

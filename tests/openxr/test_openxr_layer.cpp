@@ -92,13 +92,6 @@ std::vector<Joints> run_recorded(int frames) {
   return r;
 }
 
-std::string read_file(const std::filesystem::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
 }  // namespace
 
 TEST_CASE("replay runtime without layer answers the noisy track exactly, in every base space") {
@@ -209,7 +202,7 @@ TEST_CASE("raw-joints extension: the runtime's joints beside the filtered ones")
     else CHECK(filtered_diff / static_cast<double>(n) < 1e-7);
     app.shutdown();
   }
-  CHECK(read_file(log).find("VALID_ERROR") == std::string::npos);
+  CHECK(hs::test::slurp(log).find("VALID_ERROR") == std::string::npos);
 }
 
 namespace {
@@ -252,7 +245,7 @@ TEST_CASE("the layer's info log names its build and the source revision it was b
     App app;
     app.shutdown();
   }
-  const std::string text = read_file(log);
+  const std::string text = hs::test::slurp(log);
   INFO(text);
   CHECK(text.find(std::string(" build of revision ") + hs::source_revision() + ", mode ") != std::string::npos);
 }
@@ -577,7 +570,7 @@ TEST_CASE("core validation above and below the layer reports no error") {
       app.shutdown(true);
     }
     int bad = 0;
-    CHECK(only_expected_errors(read_file(log), bad));
+    CHECK(only_expected_errors(hs::test::slurp(log), bad));
     CHECK(bad > 0);
   }
 }
@@ -607,7 +600,7 @@ TEST_CASE("core validation catches a bad call (the check above can fail)") {
     app.shutdown();
   }
   int bad = 0;
-  CHECK_FALSE(only_expected_errors(read_file(log), bad));
+  CHECK_FALSE(only_expected_errors(hs::test::slurp(log), bad));
   CHECK(bad > 0);
 }
 

@@ -17,7 +17,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
-#include <iterator>
 #include <string>
 #include <vector>
 
@@ -26,6 +25,7 @@
 
 namespace fs = std::filesystem;
 using namespace hs::xrtest;
+using hs::test::slurp;
 using hs::test::StderrToFile;
 
 namespace {
@@ -37,12 +37,8 @@ int sh(const std::string& cmd) {
 
 std::string quoted(const fs::path& p) { return "\"" + p.string() + "\""; }
 
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
-// Builds the package into dir/out and unpacks it into dir/root; returns the root's /usr
+// Builds the package into dir/out (its Depends and Version fields into dir/depends.txt and
+// dir/version.txt) and unpacks it into dir/root; returns the root's /usr
 // (CPACK_PACKAGING_INSTALL_PREFIX), canonical as the layer and the CLI see their paths.
 fs::path unpack_package(const fs::path& dir) {
   const fs::path out = dir / "out", root = dir / "root";
@@ -56,6 +52,7 @@ fs::path unpack_package(const fs::path& dir) {
     if (e.path().extension() == ".deb") debs.push_back(e.path());
   REQUIRE(debs.size() == 1);
   REQUIRE(sh("dpkg-deb -f " + quoted(debs[0]) + " Depends > " + quoted(dir / "depends.txt")) == 0);
+  REQUIRE(sh("dpkg-deb -f " + quoted(debs[0]) + " Version > " + quoted(dir / "version.txt")) == 0);
   MESSAGE("package: " << debs[0].filename().string() << ", Depends: " << slurp(dir / "depends.txt"));
   REQUIRE(sh("dpkg-deb -x " + quoted(debs[0]) + " " + quoted(root)) == 0);
   return fs::canonical(root / "usr");
@@ -204,6 +201,15 @@ TEST_CASE("Debian package unpacked into a scratch root: complete, no build paths
     REQUIRE(sh("env -u HANDSTEADY_MODEL " + quoted(usr / "bin/handsteady") + " filter --method stgae --in " +
                quoted(f.noisy_csv) + " --out " + quoted(out)) == 0);
     CHECK(hs::read_track_csv(out).meta("filter").value_or("").find(model.string()) != std::string::npos);
+  }
+
+  // The packaged CLI reports the package's version (both from CMake's project version).
+  {
+    std::string version = slurp(dir / "version.txt");
+    version.erase(version.find_last_not_of(" \n") + 1);
+    REQUIRE(!version.empty());
+    REQUIRE(sh(quoted(usr / "bin/handsteady") + " --version > " + quoted(dir / "cli_version.txt")) == 0);
+    CHECK(slurp(dir / "cli_version.txt").rfind("handsteady " + version + " (revision ", 0) == 0);
   }
   fs::remove_all(dir);
 }

@@ -10,4 +10,7 @@ namespace hs {
 // outside a git checkout. Refreshed at every build (cmake/source_revision.cmake).
 const char* source_revision() noexcept;
 
+// The release version, CMake's project(VERSION) (the one the Debian package carries too).
+const char* project_version() noexcept;
+
 }  // namespace hs
