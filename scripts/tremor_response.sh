@@ -47,7 +47,7 @@ for kind in hand fingers; do
       # The filters run side by side (one thread each); a failed one stops the script.
       $hs filter --method "$method" --in "$noisy" --out "$out/shipped.csv" >/dev/null &
       pids=($!)
-      outs=("$noisy" "$out/shipped.csv")
+      outs=("$out/shipped.csv")
       i=0
       for m in "$@"; do
         $hs filter --method "$method" --model "${m#*=}" --in "$noisy" --out "$out/m$i.csv" >/dev/null &
@@ -56,7 +56,7 @@ for kind in hand fingers; do
       done
       for p in "${pids[@]}"; do wait "$p"; done
       raw=$(mpjpe "$out/clean$rate.csv" "$noisy")
-      printf "| %s |" "$f"
+      printf "| %s | %.2f (1.00) |" "$f" "$raw"
       for o in "${outs[@]}"; do
         v=$(mpjpe "$out/clean$rate.csv" "$o")
         printf " %.2f (%.2f) |" "$v" "$(awk -v a="$v" -v b="$raw" 'BEGIN{print a / b}')"
