@@ -37,6 +37,7 @@ struct BenchmarkOptions {
   bool unbounded = false;  // also each model without its trust region
   bool gain = false;       // also each model with its correction gain at every rate
   bool no_gain = false;    // also each model without it
+  bool no_guard = false;   // also each model without its oscillation guard
   bool smoothed = false;   // also each model with its prediction smoothing
   bool palm_fit = false;   // also raw and tuned One Euro behind the palm fit, and each model without it
   bool tremor = false;     // also raw and tuned One Euro behind the palm fit and tremor canceller, each model with it
@@ -136,6 +137,7 @@ void run_benchmark(const BenchmarkOptions& o, const std::string& command) {
     if (o.gain) add("-gain", [](FilterConfig& v) { v.stgae.gain = true; });
     if (o.no_gain) add("-nogain", [](FilterConfig& v) { v.stgae.gain = false; });
     if (o.smoothed) add("-smoothed", [](FilterConfig& v) { v.stgae.smooth = true; });
+    if (o.no_guard) add("-noguard", [](FilterConfig& v) { v.stgae.guard = false; });
     if (o.unbounded) add("-unbounded", [](FilterConfig& v) { v.stgae.bounded = false; });
     if (o.tremor) add("-tremor", [](FilterConfig& v) { v.tremor_cancel = true; });
     report.notes.push_back(fmt::format("model {} = {}", label, files));
@@ -186,6 +188,9 @@ void setup_benchmark(CLI::App& app) {
                 "applies it to input faster than the model; docs/STGAE.md \"Correction gain\")");
   sub->add_flag("--no-gain", o->no_gain,
                 "Also score each model without its correction gain (label LABEL-nogain)");
+  sub->add_flag("--no-guard", o->no_guard,
+                "Also score each model without its oscillation guard (label LABEL-noguard; docs/STGAE.md "
+                "\"Oscillation guard\")");
   sub->add_flag("--unbounded", o->unbounded,
                 "Also score each model without its trust region (label LABEL-unbounded; docs/STGAE.md)");
   sub->add_flag("--smoothed", o->smoothed,

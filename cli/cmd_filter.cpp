@@ -49,6 +49,7 @@ struct FilterOptions {
   bool unbounded = false;  // the network's own answer, without the trust region
   bool gain = false;       // the correction gain at every rate (correction_gain.hpp)
   bool no_gain = false;    // ... at none (the default: where the noise is measured at the input rate)
+  bool no_guard = false;   // without the oscillation guard (oscillation_guard.hpp)
   bool smooth_predictions = false; // predicted displacements smoothed over time
   bool palm_fit = false;     // fit the hand's rigid palm to each input row first (any method)
   bool no_palm_fit = false;  // ... not even for a network method (where it is the default)
@@ -71,6 +72,7 @@ FilterConfig filter_config(const FilterOptions& o) {
   if (o.gain) c.stgae.gain = true;
   if (o.no_gain) c.stgae.gain = false;
   c.stgae.smooth = o.smooth_predictions;
+  c.stgae.guard = !o.no_guard;
   c.stgae.offline = o.offline;
   if (o.palm_fit) c.palm_fit = true;
   if (o.no_palm_fit) c.palm_fit = false;
@@ -152,7 +154,8 @@ void run_filter(const FilterOptions& o) {
   }
   // Options of the trust region's stages: a network streaming, with the trust region.
   for (const auto& [set, flag] : {std::pair{o.gain, "--gain"}, std::pair{o.no_gain, "--no-gain"},
-                                  std::pair{o.smooth_predictions, "--smooth-predictions"}})
+                                  std::pair{o.smooth_predictions, "--smooth-predictions"},
+                                  std::pair{o.no_guard, "--no-guard"}})
     if (set && (!stgae || o.offline || o.unbounded))
       throw InputError({"", 0, flag}, fmt::format("{} is for --method stgae or dgn streaming, with the trust region", flag));
   if (o.gain && o.no_gain) throw InputError({"", 0, "--gain"}, "--gain and --no-gain contradict");
@@ -228,6 +231,10 @@ void setup_filter(CLI::App& app) {
                 "removal of 4-6 Hz tremor)");
   sub->add_flag("--no-gain", o->no_gain,
                 "stgae, dgn: no correction gain at any rate (the default applies it to input faster than the model)");
+  sub->add_flag("--no-guard", o->no_guard,
+                "stgae, dgn: without the oscillation guard, which scales the whole hand's correction back where "
+                "the answer's whole-hand motion accelerates more than the input's (docs/STGAE.md \"Oscillation guard\"; "
+                "for comparison)");
   sub->add_flag("--smooth-predictions", o->smooth_predictions,
                 "stgae, dgn: smooth each predicted frame's displacement over time (docs/STGAE.md \"Prediction "
                 "smoothing\"; ~40 % less jitter at --horizon-ms 50 for a few % more error)");

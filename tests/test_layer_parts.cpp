@@ -582,7 +582,7 @@ TEST_CASE("configuration: tremor_cancel puts the tremor canceller in front of an
   std::filesystem::remove_all(dir);
 }
 
-TEST_CASE("configuration: prediction_smoothing (off by default) and correction_gain (auto by default) set the network's options, a bad value warns") {
+TEST_CASE("configuration: prediction_smoothing (off by default), correction_gain (auto by default) and oscillation_guard (on by default) set the network's options, a bad value warns") {
   auto parse = [](const std::string& text, std::vector<std::string>& warnings) {
     return hs::layer::parse_layer_config_json(text, "cfg.json", warnings);
   };
@@ -595,8 +595,10 @@ TEST_CASE("configuration: prediction_smoothing (off by default) and correction_g
   };
   const State smooth = [](const hs::StgaeParams& p) { return std::string(p.smooth ? "on" : "off"); };
   const State gain = [](const hs::StgaeParams& p) { return std::string(!p.gain ? "auto" : *p.gain ? "on" : "off"); };
+  const State guard = [](const hs::StgaeParams& p) { return std::string(p.guard ? "on" : "off"); };
   for (const Case& k : {Case{"prediction_smoothing", "HANDSTEADY_PREDICTION_SMOOTHING", "off", smooth, false},
-                        Case{"correction_gain", "HANDSTEADY_CORRECTION_GAIN", "auto", gain, true}}) {
+                        Case{"correction_gain", "HANDSTEADY_CORRECTION_GAIN", "auto", gain, true},
+                        Case{"oscillation_guard", "HANDSTEADY_OSCILLATION_GUARD", "on", guard, false}}) {
     CAPTURE(k.key);
     const auto set = [&](const std::string& value, std::vector<std::string>& w) {
       return k.state(parse("{\"" + k.key + "\": " + value + "}", w).filter.stgae);
@@ -623,6 +625,7 @@ TEST_CASE("configuration: prediction_smoothing (off by default) and correction_g
     const auto only = parse("{\"" + k.key + "\": true}", w);
     CHECK(smooth(only.filter.stgae) == (k.key == "prediction_smoothing" ? "on" : "off"));
     CHECK(gain(only.filter.stgae) == (k.key == "correction_gain" ? "on" : "auto"));
+    CHECK(guard(parse("{\"" + k.key + "\": false}", w).filter.stgae) == (k.key == "oscillation_guard" ? "off" : "on"));
     // The environment overrides the file; a bad value there keeps the file's.
     const auto dir = hs::test::temp_dir("layer_switch_config");
     const std::string file = R"({"method": "kalman", ")" + k.key + R"(": true})";

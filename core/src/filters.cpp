@@ -316,7 +316,7 @@ std::unique_ptr<PoseFilter> make_network_filter(const FilterConfig& c) {
   };
   if (p.model) require_family(*p.model, p.source);
   const auto adapter = [&](const std::shared_ptr<const StgaeModel>& m) {
-    return make_stgae_filter(m, 0.0, p.phases, p.bounded, p.gain, p.smooth);
+    return make_stgae_filter(m, 0.0, p.phases, p.bounded, p.gain, p.smooth, p.guard);
   };
   if (p.rate_models.empty()) return adapter(p.model);
   if (!p.model) throw std::invalid_argument("network method: rate models need a model to pair with");
@@ -422,12 +422,13 @@ std::string filter_params_summary(const FilterConfig& c) {
       const StgaeParams& p = c.stgae;
       if (!p.model) return fmt::format("model={} (not loaded)", p.source);
       const StgaeConfig& m = p.model->config;
-      return fmt::format("model={} rate_hz={} window={} horizon_frames={} padding={} mode={} phases={}{}{}{}", p.source,
+      return fmt::format("model={} rate_hz={} window={} horizon_frames={} padding={} mode={} phases={}{}{}{}{}", p.source,
                          m.rate_hz, m.window, m.predict ? m.horizon : 0,
                          m.padding == StgaePadding::Causal ? "causal" : "centred",
                          p.offline ? "offline" : "streaming", p.phases == 0 ? std::string("auto") : std::to_string(p.phases),
                          p.bounded ? "" : " unbounded", p.bounded && p.gain ? (*p.gain ? " gain" : " no-gain") : "",
-                         p.bounded && p.smooth && !p.offline ? " smoothed" : "") + rate_models_summary(p) + fit;
+                         p.bounded && p.smooth && !p.offline ? " smoothed" : "",
+                         p.bounded && !p.guard && !p.offline ? " unguarded" : "") + rate_models_summary(p) + fit;
     }
   }
   return s + fmt::format("max_gap_ms={}", c.max_gap_s * 1e3) + fit;

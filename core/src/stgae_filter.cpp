@@ -9,6 +9,7 @@
 #include "handsteady/correction_gain.hpp"
 #include "handsteady/input_noise.hpp"
 #include "handsteady/motion_lag_cap.hpp"
+#include "handsteady/oscillation_guard.hpp"
 #include "handsteady/prediction_smoothing.hpp"
 #include "handsteady/stgae_engine.hpp"
 #include "handsteady/stgae_filter.hpp"
@@ -37,9 +38,10 @@ struct PhaseOutput {
 
 class StgaeFilter final : public PoseFilter {
  public:
-  StgaeFilter(std::shared_ptr<const StgaeModel> model, int phases, bool bounded, std::optional<bool> gain, bool smooth)
+  StgaeFilter(std::shared_ptr<const StgaeModel> model, int phases, bool bounded, std::optional<bool> gain, bool smooth,
+              bool guard)
       : model_(std::move(model)), fixed_phases_(phases), bounded_(bounded), gain_mode_(gain),
-        smoothed_(bounded && smooth) {
+        smoothed_(bounded && smooth), guarded_(bounded && guard) {
     const auto& c = model_->config;
     n_ = c.joint_count();
     if (n_ != kJointCount) throw std::invalid_argument("the STGAE filter needs a 26-joint (xr26) model");
@@ -75,11 +77,15 @@ class StgaeFilter final : public PoseFilter {
   bool push(double t, const Pose& observed) noexcept override {
     if (!is_next_time(t, last_t_)) return false;
     lag_cap_.clear();
-    if (!push_row(t, observed)) return true;  // hand lost in this frame
+    if (!push_row(t, observed)) {  // hand lost in this frame
+      guard_.clear();
+      return true;
+    }
     const bool gain = gaining() && latest_ >= 0;
     const bool cap = bounded_ && phases_ >= 2;
-    if (!gain && !cap) return true;
-    answer(t, ans_);  // once, for both
+    const bool guard = guarded_ && latest_ >= 0;
+    if (!gain && !cap && !guard) return true;
+    answer(t, ans_);  // once, for all three
     if (gain) {
       // The noise is measured at the input rate only where rows come between a stream's
       // frames (K >= 2): one stream's rows are its frames (the trust region's `measured`).
@@ -95,6 +101,14 @@ class StgaeFilter final : public PoseFilter {
         for (int j = 0; j < n_; ++j)
           for (int c = 0; c < 3; ++c) a(j, c) += gain_.shift(j, c);
       lag_cap_.observe(std::span<const float>(cur_.data(), cur_.size()), a, noise_.noise2(), noise_.jumps());
+    }
+    if (guard) {
+      // The guard reads the answer as it goes out without it (the gain's and the cap's shifts in).
+      for (int j = 0; j < n_; ++j)
+        for (int c = 0; c < 3; ++c) ans_(j, c) += (gain ? gain_.shift(j, c) : 0.0) + lag_cap_.shift(j, c);
+      guard_.observe(std::span<const float>(cur_.data(), cur_.size()), ans_);
+    } else {
+      guard_.clear();
     }
     return true;
   }
@@ -164,15 +178,17 @@ class StgaeFilter final : public PoseFilter {
   void estimate(double t, Pose& out) const noexcept override {
     answer(t, out);
     if (std::isnan(last_t_)) return;
-    // The correction gain and the lag cap are a denoiser's: their shifts fade out over one
-    // model period ahead, so predictions keep the network's path (the input's noise the
-    // gain's shift lets through made the 50 ms predictions jerkier: docs/STGAE.md
-    // "Correction gain"). The cap's shift is zero where it does not act.
+    // The correction gain, the lag cap and the oscillation guard are a denoiser's: their
+    // shifts fade out over one model period ahead, so predictions keep the network's path
+    // (the input's noise the gain's shift lets through made the 50 ms predictions jerkier:
+    // docs/STGAE.md "Correction gain"). The cap's and the guard's shifts are zero where
+    // they do not act.
     const double w = std::max(0.0, 1.0 - (std::max(t, last_t_) - last_t_) / period_);
     if (w <= 0.0) return;
     const bool gain = gaining();
     for (int j = 0; j < n_; ++j)
-      for (int c = 0; c < 3; ++c) out(j, c) += w * ((gain ? gain_.shift(j, c) : 0.0) + lag_cap_.shift(j, c));
+      for (int c = 0; c < 3; ++c)
+        out(j, c) += w * ((gain ? gain_.shift(j, c) : 0.0) + lag_cap_.shift(j, c) + guard_.shift(c));
   }
 
   // The streams' answer at t, before the correction gain.
@@ -294,6 +310,7 @@ class StgaeFilter final : public PoseFilter {
     smoother_.reset();
     gain_.restart();
     lag_cap_.reset();
+    guard_.reset();  // the history no longer describes the hand: its energies neither
     for (PhaseOutput& o : out_) o.have = o.have_prev = false;
     older_w_.fill(kOlderPhaseWeight);
     disagree2_.fill(0.0);
@@ -437,11 +454,13 @@ class StgaeFilter final : public PoseFilter {
   PredictionSmoother smoother_;  // one for all streams (smoothed_): their frames in time order
   CorrectionGain gain_;          // how much of the answer's correction to keep (gaining())
   MotionLagCap lag_cap_;         // the correction along a fast joint's motion, held (bounded_, K >= 2)
+  bool guarded_ = true;
+  OscillationGuard guard_;       // the whole hand shaken no more than the input (guarded_)
   InputNoise noise_;             // the input's noise at the input rate, for the trust region
   std::array<double, kJointCount> older_w_{};       // the older stream's weight per joint
   std::array<double, kJointCount> disagree2_{};     // mean squared disagreement of the two newest streams, m^2
   std::array<int, kJointCount> disagree_count_{};
-  Pose ans_ = untracked_pose();  // the answer at the last row, before the gain and the cap
+  Pose ans_ = untracked_pose();  // the answer at the last row, before the gain and the cap (then the guard's input)
   int n_ = 0, dt_frames_ = 0, phases_ = 1, latest_ = -1, valid_rows_ = 0, mismatch_rows_ = 0;
   IntervalRing<kRateWindow> intervals_;  // the last sample intervals (s)
   double period_ = 1.0 / 30.0, sub_period_ = 1.0 / 30.0;
@@ -460,7 +479,7 @@ class StgaeFilter final : public PoseFilter {
 }  // namespace
 
 std::unique_ptr<PoseFilter> make_stgae_filter(std::shared_ptr<const StgaeModel> model, double horizon_s, int phases,
-                                              bool bounded, std::optional<bool> gain, bool smooth) {
+                                              bool bounded, std::optional<bool> gain, bool smooth, bool guard) {
   if (!model || !model->net) throw std::invalid_argument("make_stgae_filter: no model");
   if (model->config.padding != StgaePadding::Causal)
     throw std::invalid_argument("make_stgae_filter: streaming needs a causal model (this one is centred)");
@@ -469,7 +488,7 @@ std::unique_ptr<PoseFilter> make_stgae_filter(std::shared_ptr<const StgaeModel> 
   if (phases < 0 || phases > kStgaeMaxPhases)
     throw std::invalid_argument("make_stgae_filter: phases must be 0 (from the input rate) to " +
                                 std::to_string(kStgaeMaxPhases));
-  return std::make_unique<StgaeFilter>(std::move(model), phases, bounded, gain, smooth);
+  return std::make_unique<StgaeFilter>(std::move(model), phases, bounded, gain, smooth, guard);
 }
 
 }  // namespace hs

@@ -131,6 +131,11 @@ struct Applier {
     else if (v == "auto") c.filter.stgae.gain.reset();
     else warnings.push_back(where + ": unknown correction gain setting '" + v + "' (auto, on, off)");
   }
+  // Its oscillation guard: on or off.
+  void oscillation_guard(const std::string& v, const std::string& where) {
+    if (auto on = parse_on_off(v)) c.filter.stgae.guard = *on;
+    else warnings.push_back(where + ": unknown oscillation guard setting '" + v + "' (on, off)");
+  }
   void log_level(const std::string& v, const std::string& where) {
     if (auto l = parse_level(v)) c.log_level = *l;
     else warnings.push_back(where + ": unknown log level '" + v + "' (off, error, warn, info, debug)");
@@ -204,6 +209,7 @@ void apply_json(std::string_view text, const std::string& where, Applier& a) {
   switch_key("tremor_cancel", &Applier::tremor_cancel, "true or false");
   switch_key("prediction_smoothing", &Applier::prediction_smoothing, "true or false");
   switch_key("correction_gain", &Applier::correction_gain, "true, false or \"auto\"");
+  switch_key("oscillation_guard", &Applier::oscillation_guard, "true or false");
   auto number = [&](const nlohmann::json& obj, const char* key, const std::string& at, auto&& apply) {
     if (!obj.contains(key)) return;
     if (obj[key].is_number()) apply(obj[key].get<double>(), at + ": " + key);
@@ -328,7 +334,8 @@ void resolve_engine(LayerConfig& c, std::vector<LogMessage>& messages) {
                                             (c.filter.tremor_cancel ? ", tremor canceller on" : "") +
                                             (c.filter.stgae.smooth ? ", predictions smoothed" : "") +
                                             (!c.filter.stgae.gain ? "" : *c.filter.stgae.gain ? ", correction gain on at every rate"
-                                                                                 : ", correction gain off")});
+                                                                                 : ", correction gain off") +
+                                            (c.filter.stgae.guard ? "" : ", oscillation guard off")});
   } catch (const std::exception& e) {
     messages.push_back({LogLevel::Error, "engine " + fallback + ": the " + net_name + " model " + file.string() +
                                              " cannot be used: " + e.what()});
@@ -415,6 +422,7 @@ LoadedConfig read_layer_config() {
   if (auto v = env("HANDSTEADY_TREMOR_CANCEL")) a.tremor_cancel(*v, "HANDSTEADY_TREMOR_CANCEL");
   if (auto v = env("HANDSTEADY_PREDICTION_SMOOTHING")) a.prediction_smoothing(*v, "HANDSTEADY_PREDICTION_SMOOTHING");
   if (auto v = env("HANDSTEADY_CORRECTION_GAIN")) a.correction_gain(*v, "HANDSTEADY_CORRECTION_GAIN");
+  if (auto v = env("HANDSTEADY_OSCILLATION_GUARD")) a.oscillation_guard(*v, "HANDSTEADY_OSCILLATION_GUARD");
   if (auto v = env("HANDSTEADY_LOG")) a.log_level(*v, "HANDSTEADY_LOG");
   if (auto v = env("HANDSTEADY_RECORD")) c.record_dir = *v;
   if (auto v = env("HANDSTEADY_WORKER")) a.worker(*v, "HANDSTEADY_WORKER");

@@ -106,6 +106,7 @@ struct StgaeParams {
   std::optional<bool> gain;
   bool smooth = false;  // with bounded: predicted displacements smoothed over time (prediction_smoothing.hpp;
                         // opt-in: ~40 % less jitter in the predictions for a few % more error)
+  bool guard = true;    // with bounded: the whole hand shaken no more than the input (oscillation_guard.hpp)
   bool offline = false;
 };
 

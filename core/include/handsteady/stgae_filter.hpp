@@ -31,12 +31,15 @@ namespace hs {
 // noise is measured at the input rate (K >= 2 streams), true at every rate, false never.
 // At one stream it would take the network's removal of a slow tremor back (docs/STGAE.md
 // "Correction gain"). `smooth` (with bounded): the predicted frames' displacements are
-// smoothed over time (prediction_smoothing.hpp); false = each frame's own. Throws
+// smoothed over time (prediction_smoothing.hpp); false = each frame's own. `guard` (with
+// bounded): the whole hand's correction is scaled back where the answer's whole-hand
+// motion accelerates more than the input's (oscillation_guard.hpp; fading out over one
+// model period ahead); false = without. Throws
 // std::invalid_argument for a centred model, a negative horizon or phases outside 0..kStgaeMaxPhases.
 inline constexpr int kStgaeMaxPhases = 4;
 std::unique_ptr<PoseFilter> make_stgae_filter(std::shared_ptr<const StgaeModel> model, double horizon_s,
                                               int phases = 0, bool bounded = true,
                                               std::optional<bool> gain = std::nullopt,
-                                              bool smooth = false);
+                                              bool smooth = false, bool guard = true);
 
 }  // namespace hs
