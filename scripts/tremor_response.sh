@@ -9,7 +9,9 @@
 # larger. Columns: raw, the shipped Multi-STGAE, then each LABEL=MODEL.hsm given
 # (`handsteady filter --method stgae --model`; METHOD=dgn for DGN models). Seeded; the
 # filters of one input run side by side: about 3 min per model on the 2-core machine with
-# the FPHA hand, seconds with the synthetic one.
+# the FPHA hand, seconds with the synthetic one. HS_TREMOR_NOGUARD=1 adds a column
+# `shipped-noguard`: the shipped model without its oscillation guard (`--no-guard`; docs/STGAE.md
+# "Oscillation guard").
 # Usage: scripts/tremor_response.sh HANDSTEADY_BINARY OUT_DIR [LABEL=MODEL.hsm ...]
 set -euo pipefail
 hs=$1; out=$2; shift 2
@@ -26,6 +28,8 @@ fi
 $hs resample --in "$out/clean30.csv" --out "$out/clean90.csv" --rate 90 >/dev/null
 freqs=(2 3 4 5 6 8 10 12)
 labels=("raw" "shipped")
+noguard=${HS_TREMOR_NOGUARD:-0}
+[ "$noguard" = 1 ] && labels+=("shipped-noguard")
 for m in "$@"; do labels+=("${m%%=*}"); done
 mpjpe() {  # truth estimate
   $hs eval --truth "$1" --in "$2" | awk '/^MPJPE/{print $2}'
@@ -48,6 +52,11 @@ for kind in hand fingers; do
       $hs filter --method "$method" --in "$noisy" --out "$out/shipped.csv" >/dev/null &
       pids=($!)
       outs=("$out/shipped.csv")
+      if [ "$noguard" = 1 ]; then
+        $hs filter --method "$method" --no-guard --in "$noisy" --out "$out/noguard.csv" >/dev/null &
+        pids+=($!)
+        outs+=("$out/noguard.csv")
+      fi
       i=0
       for m in "$@"; do
         $hs filter --method "$method" --model "${m#*=}" --in "$noisy" --out "$out/m$i.csv" >/dev/null &

@@ -8,6 +8,7 @@ namespace hs {
 
 void OscillationGuard::reset() noexcept {
   e_in_ = e_out_ = 0.0;
+  diffs_ = 0;
   clear();
 }
 
@@ -61,8 +62,9 @@ void OscillationGuard::observe(std::span<const float> x, const Pose& answer) noe
     constexpr double lambda = 1.0 - 1.0 / kGuardRows;
     e_in_ = lambda * e_in_ + ex / (n * n);
     e_out_ = lambda * e_out_ + ey / (n * n);
+    diffs_ = std::min(diffs_ + 1, kGuardWarmRows);
   }
-  kept_ = e_out_ > e_in_ ? std::pow(e_in_ / e_out_, kGuardPower) : 1.0;
+  kept_ = diffs_ >= kGuardWarmRows && e_out_ > e_in_ ? std::pow(e_in_ / e_out_, kGuardPower) : 1.0;
   if (n1 < kGuardMinJoints || !std::isfinite(kept_)) {
     kept_ = 1.0;
     shift_.fill(0.0);

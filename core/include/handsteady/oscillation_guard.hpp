@@ -11,7 +11,9 @@
 // joints of answer - input) is scaled by (E_in / E_out)^kGuardPower, the per-joint rest
 // left as it is. The answer only ever moves towards the input, by at most that mean.
 // Second differences are taken per joint over the joints present in all three rows
-// (missing joints do not move the mean), kGuardMinJoints or more. noexcept, no allocation.
+// (missing joints do not move the mean), kGuardMinJoints or more; it acts once
+// kGuardWarmRows differences have been seen since reset (a start's first few are no
+// measure of either energy). noexcept, no allocation.
 // docs/STGAE.md "Oscillation guard".
 #include "handsteady/skeleton.hpp"
 #include "handsteady/track.hpp"
@@ -24,6 +26,7 @@ namespace hs {
 inline constexpr double kGuardRows = 15.0;  // memory of the energies (rows)
 inline constexpr double kGuardPower = 4.0;  // the whole-hand correction kept: (E_in / E_out)^this
 inline constexpr int kGuardMinJoints = 5;   // joints a row's mean needs
+inline constexpr int kGuardWarmRows = 8;    // differences seen before it acts (a few are no energy)
 
 class OscillationGuard {
  public:
@@ -45,6 +48,7 @@ class OscillationGuard {
   std::array<std::array<double, kFs>, 2> x_{}, y_{};  // the last two rows' input and answer (NaN: missing)
   long rows_ = 0;                                     // rows in a row since reset or clear
   double e_in_ = 0.0, e_out_ = 0.0;                   // running energies (m^2)
+  int diffs_ = 0;                                     // differences in them since reset
   double kept_ = 1.0;
   std::array<double, 3> shift_{};
 };
