@@ -67,6 +67,9 @@ TEST_CASE("oscillation guard: an answer shaking the whole hand more than the inp
     CHECK((mean_corr + shift).norm() <= mean_corr.norm() + 1e-12);
     CHECK(g.kept() >= 0.0);
     CHECK(g.kept() <= 1.0);
+    // Rows 0 and 1 give no difference; it acts from the kGuardWarmRows-th on (row 9).
+    if (i <= static_cast<size_t>(hs::kGuardWarmRows)) CHECK(g.kept() == 1.0);
+    if (i == static_cast<size_t>(hs::kGuardWarmRows) + 1) CHECK(g.kept() < 1.0);
     if (i < 30) continue;
     kept_min = std::min(kept_min, g.kept());
     for (int j = 0; j < kJointCount; ++j) {
