@@ -1,8 +1,9 @@
 #include "handsteady/oscillation_guard.hpp"
 
+#include "handsteady/time_series.hpp"
+
 #include <algorithm>
 #include <cmath>
-#include <limits>
 
 namespace hs {
 
@@ -20,18 +21,17 @@ void OscillationGuard::clear() noexcept {
 
 void OscillationGuard::observe(std::span<const float> x, const Pose& answer) noexcept {
   if (x.size() < kFs) return;
-  auto& x0 = x_[static_cast<size_t>(rows_ % 2)];  // two rows back, overwritten by this one
-  const auto& x1 = x_[static_cast<size_t>((rows_ + 1) % 2)];
-  auto& y0 = y_[static_cast<size_t>(rows_ % 2)];
-  const auto& y1 = y_[static_cast<size_t>((rows_ + 1) % 2)];
+  auto& x0 = x_[static_cast<size_t>(older_)];  // two rows back, overwritten by this one
+  const auto& x1 = x_[static_cast<size_t>(1 - older_)];
+  auto& y0 = y_[static_cast<size_t>(older_)];
+  const auto& y1 = y_[static_cast<size_t>(1 - older_)];
   // The mean second difference of input and answer over joints in all three rows, and the
   // mean correction over joints in this one.
   std::array<double, 3> dx{}, dy{}, corr{};
   int n2 = 0, n1 = 0;
   for (int j = 0; j < kJointCount; ++j) {
     const auto i = static_cast<size_t>(3 * j);
-    const bool here = std::isfinite(x[i]) && std::isfinite(x[i + 1]) && std::isfinite(x[i + 2]) &&
-                      joint_finite(answer, j);
+    const bool here = finite_xyz(x.data() + i) && joint_finite(answer, j);
     const bool before = rows_ >= 2 && std::isfinite(x0[i]) && std::isfinite(x1[i]) && std::isfinite(y0[i]) &&
                         std::isfinite(y1[i]);
     for (int c = 0; c < 3; ++c) {
@@ -51,7 +51,8 @@ void OscillationGuard::observe(std::span<const float> x, const Pose& answer) noe
     n1 += here ? 1 : 0;
     n2 += here && before ? 1 : 0;
   }
-  rows_ = std::min(rows_ + 1, 1L << 30);
+  rows_ = std::min(rows_ + 1, 2);
+  older_ = 1 - older_;
   if (n2 >= kGuardMinJoints) {
     double ex = 0.0, ey = 0.0;
     for (int c = 0; c < 3; ++c) {

@@ -92,20 +92,19 @@ class StgaeFilter final : public PoseFilter {
       gain_.observe(t, std::span<const float>(cur_.data(), cur_.size()),
                     std::span<const double>(ans_.data(), static_cast<size_t>(ans_.size())),
                     phases_ >= 2 ? noise_.noise2() : std::span<const double>{});
+      // From here ans_ is the answer as it goes out, each stage's shift added for the next.
+      for (int j = 0; j < n_; ++j)
+        for (int c = 0; c < 3; ++c) ans_(j, c) += gain_.shift(j, c);
     }
     if (cap) {
-      // The lag cap reads the answer as it goes out (with the gain's shift) and the noise
-      // measured at the input rate, which one stream's rows do not give.
-      Pose a = ans_;
-      if (gain)
-        for (int j = 0; j < n_; ++j)
-          for (int c = 0; c < 3; ++c) a(j, c) += gain_.shift(j, c);
-      lag_cap_.observe(std::span<const float>(cur_.data(), cur_.size()), a, noise_.noise2(), noise_.jumps());
+      // The lag cap reads the answer with the gain's shift and the noise measured at the
+      // input rate, which one stream's rows do not give.
+      lag_cap_.observe(std::span<const float>(cur_.data(), cur_.size()), ans_, noise_.noise2(), noise_.jumps());
     }
     if (guard) {
-      // The guard reads the answer as it goes out without it (the gain's and the cap's shifts in).
+      // The guard reads it with the gain's and the cap's shifts (the cap's is zero where it does not act).
       for (int j = 0; j < n_; ++j)
-        for (int c = 0; c < 3; ++c) ans_(j, c) += (gain ? gain_.shift(j, c) : 0.0) + lag_cap_.shift(j, c);
+        for (int c = 0; c < 3; ++c) ans_(j, c) += lag_cap_.shift(j, c);
       guard_.observe(std::span<const float>(cur_.data(), cur_.size()), ans_);
     } else {
       guard_.clear();
@@ -460,7 +459,7 @@ class StgaeFilter final : public PoseFilter {
   std::array<double, kJointCount> older_w_{};       // the older stream's weight per joint
   std::array<double, kJointCount> disagree2_{};     // mean squared disagreement of the two newest streams, m^2
   std::array<int, kJointCount> disagree_count_{};
-  Pose ans_ = untracked_pose();  // the answer at the last row, before the gain and the cap (then the guard's input)
+  Pose ans_ = untracked_pose();  // the answer at the last row (push: the stages' shifts added in turn)
   int n_ = 0, dt_frames_ = 0, phases_ = 1, latest_ = -1, valid_rows_ = 0, mismatch_rows_ = 0;
   IntervalRing<kRateWindow> intervals_;  // the last sample intervals (s)
   double period_ = 1.0 / 30.0, sub_period_ = 1.0 / 30.0;

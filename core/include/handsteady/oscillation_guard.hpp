@@ -46,7 +46,8 @@ class OscillationGuard {
  private:
   static constexpr size_t kFs = 3 * kJointCount;
   std::array<std::array<double, kFs>, 2> x_{}, y_{};  // the last two rows' input and answer (NaN: missing)
-  long rows_ = 0;                                     // rows in a row since reset or clear
+  int rows_ = 0;                                      // rows in a row since reset or clear, up to 2
+  int older_ = 0;                                     // the slot of x_, y_ with the row two back
   double e_in_ = 0.0, e_out_ = 0.0;                   // running energies (m^2)
   int diffs_ = 0;                                     // differences in them since reset
   double kept_ = 1.0;
