@@ -10,8 +10,10 @@ namespace {
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
 constexpr double kClipAfterRows = 20.0;  // the error RMS is known well enough to clip with
 constexpr double kRidge = 1e-3;          // of the window's rows: keeps the 2 x 2 solve regular
-// The prominence's lower side of the band's lowest peak is in the spectrum.
+// The prominence's sides of the band's lowest and highest peaks are in the spectrum.
 static_assert(kTremorMinHz - kTremorProminenceOffHz >= kTremorSpectrumLoHz);
+static_assert(kTremorMaxHz * (1.0 + kTremorProminenceOffShare) <= kTremorSpectrumLoHz + kTremorStepHz * (kTremorBins - 1) + 1e-9);
+static_assert(kTremorMinHz * kTremorProminenceOffShare <= kTremorProminenceOffHz);  // the share widens only
 }  // namespace
 
 // Two critically damped alpha-beta trackers in a row (Brown's double exponential smoothing
@@ -66,7 +68,7 @@ double TremorCancel::peak_hz(double& prominence) const noexcept {
       if (const double p = power(k); p > best_p) best = k, best_p = p;
   prominence = 0.0;
   if (best < 0) return 0.0;
-  const int off = static_cast<int>(std::lround(kTremorProminenceOffHz / kTremorStepHz));
+  const int off = static_cast<int>(std::lround(std::max(kTremorProminenceOffHz, kTremorProminenceOffShare * hz(best)) / kTremorStepHz));
   double side = power(best - off);
   if (best + off < kTremorBins && hz(best + off) < top) side = std::max(side, power(best + off));
   prominence = side > 0.0 ? best_p / side : 1e9;

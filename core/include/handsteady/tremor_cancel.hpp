@@ -24,10 +24,13 @@
 // Only what is tremor-like is cancelled, by three gates:
 // - prominence: tremor is a narrow, lasting peak; voluntary motion (handwriting strokes at
 //   3-6 Hz, gestures) spreads over the band and comes and goes. The peak's power over the
-//   larger of the powers kTremorProminenceOffHz either side (the spectrum reaches below the
-//   band for this) must reach kTremorProminenceLo to count at all, kTremorProminenceHi
+//   larger of the powers either side, kTremorProminenceOffHz or kTremorProminenceOffShare
+//   of the peak's frequency away, whichever is further (the spectrum reaches beyond the
+//   band for this), must reach kTremorProminenceLo to count at all, kTremorProminenceHi
 //   to count fully. Without this gate the canceller took in-air handwriting for tremor
-//   (docs/FILTERS.md "Tremor canceller");
+//   (docs/FILTERS.md "Tremor canceller"). The share: a tremor's frequency wanders over a
+//   band that grows with it (8-12 Hz against 4-6 Hz), and a fixed 0.8 Hz left a wandering
+//   physiological tremor's own peak on both sides of it;
 // - prediction: each channel's estimate is scaled by how much of its residual the weights
 //   predicted before they saw it (out of sample: 1 - error power / residual power, full at
 //   kTremorGateSpan), so white or correlated jitter and a still hand are left alone.
@@ -53,9 +56,10 @@ inline constexpr double kTremorMinHz = 3.5;            // the band searched for 
 inline constexpr double kTremorMaxHz = 12.5;
 inline constexpr double kTremorStepHz = 0.1;           // the spectrum's bins
 inline constexpr double kTremorSpectrumLoHz = 2.5;     // ... from here (below the band, for the prominence)
-inline constexpr int kTremorBins = 111;                // ... to 13.5 Hz
+inline constexpr int kTremorBins = 121;                // ... to 14.5 Hz
 inline constexpr double kTremorSpectrumS = 2.0;        // memory of the running spectrum
-inline constexpr double kTremorProminenceOffHz = 0.8;  // prominence: the peak's power over the larger at +-this
+inline constexpr double kTremorProminenceOffHz = 0.8;  // prominence: the peak's power over the larger at +-this,
+inline constexpr double kTremorProminenceOffShare = 0.16;  // ... or at +-this share of the peak's frequency, if further
 inline constexpr double kTremorProminenceLo = 5.0;     // ... below this, nothing is cancelled
 inline constexpr double kTremorProminenceHi = 20.0;    // ... from this on, all of it
 inline constexpr double kTremorNyquistShare = 0.4;     // frequencies looked for: below this share of the input rate
