@@ -40,6 +40,7 @@ void TremorCancel::reset() noexcept {
   dt_mean_ = 0.0;
   fit_age_s_ = 0.0;
   joint_age_s_.fill(-1.0);
+  joint_last_t_.fill(0.0);
   for (auto& bin : spec_)
     for (auto& c : bin) c = {0.0, 0.0};
   freq_hz_ = 0.0;
@@ -98,23 +99,31 @@ void TremorCancel::apply(double t, Pose& pose) noexcept {
   std::array<bool, kJointCount> use{};
   for (int j = 0; j < kJointCount; ++j) {
     const size_t js = static_cast<size_t>(j);
-    if (!joint_finite(pose, j)) {
-      joint_age_s_[js] = -1.0;
-      continue;
-    }
+    if (!joint_finite(pose, j)) continue;  // its filter waits (kTremorJointHoldS)
     auto& hp = sig_hp_[js];
-    if (joint_age_s_[js] < 0.0 || rows_ == 1) {
+    const double jdt = t - joint_last_t_[js];
+    joint_last_t_[js] = t;
+    if (joint_age_s_[js] < 0.0 || rows_ == 1 || jdt > kTremorJointHoldS) {
       for (int a = 0; a < 3; ++a) hp[static_cast<size_t>(a)].start(pose(j, a));
       joint_age_s_[js] = 0.0;
       continue;
     }
-    for (int a = 0; a < 3; ++a) r[js](a) = hp[static_cast<size_t>(a)].step(pose(j, a), dt, w_hp);
-    joint_age_s_[js] += dt;
+    for (int a = 0; a < 3; ++a) r[js](a) = hp[static_cast<size_t>(a)].step(pose(j, a), jdt, w_hp);
+    joint_age_s_[js] += jdt;
     if (joint_age_s_[js] >= kTremorWarmS) {
       use[js] = true;
       hand += r[js];
       ++warm;
     }
+  }
+  // The oscillator and its regressors' filter run on every row, so that the weights learnt
+  // stay in phase with the tremor over rows too sparse to learn from.
+  std::array<double, 2> x{};
+  if (freq_hz_ > 0.0) {
+    phase_ = std::remainder(phase_ + kTwoPi * freq_hz_ * dt, kTwoPi);
+    x = {std::sin(phase_), std::cos(phase_)};
+    for (int i = 0; i < 2; ++i) u_[static_cast<size_t>(i)] = reg_hp_[static_cast<size_t>(i)].step(x[static_cast<size_t>(i)], dt, w_hp);
+    fit_age_s_ += dt;
   }
   if (warm < kTremorMinJoints) return;
   hand /= warm;
@@ -144,10 +153,6 @@ void TremorCancel::apply(double t, Pose& pose) noexcept {
     fit_age_s_ = 0.0;
     return;
   }
-  phase_ = std::remainder(phase_ + kTwoPi * freq_hz_ * dt, kTwoPi);
-  const std::array<double, 2> x = {std::sin(phase_), std::cos(phase_)};
-  for (int i = 0; i < 2; ++i) u_[static_cast<size_t>(i)] = reg_hp_[static_cast<size_t>(i)].step(x[static_cast<size_t>(i)], dt, w_hp);
-  fit_age_s_ += dt;
   if (const double f = peak_hz(prominence); f > 0.0) freq_hz_ = f;
   const double prom_gate = std::clamp((prominence - kTremorProminenceLo) / (kTremorProminenceHi - kTremorProminenceLo), 0.0, 1.0);
   if (fit_age_s_ < kTremorWarmS) return;  // the regressors' filter settles

@@ -38,6 +38,9 @@
 //   shake) swings centimetres. Where the largest joint's oscillation exceeds
 //   kTremorAmplitudeFullM, the cancelling fades, to nothing at kTremorAmplitudeOffM, for
 //   the whole hand (cancelling only part of a swing would bend the hand).
+// A joint missing for a few rows (a tracker's dropped joints) keeps its filter, which
+// resumes with the time since its last row: restarting it at every drop kept joints from
+// warming up, and with 5 % of joints dropped per row nothing was cancelled at all.
 // Residuals beyond kTremorClip of that error's RMS (outliers, jumps) teach it no more than
 // that. Frequencies above kTremorNyquistShare of the input rate are not looked for.
 //
@@ -66,6 +69,7 @@ inline constexpr double kTremorNyquistShare = 0.4;     // frequencies looked for
 inline constexpr double kTremorMemoryS = 0.2;          // memory of the amplitude and phase fit
 inline constexpr double kTremorHighPassHz = 2.0;       // the high-pass that keeps voluntary motion out
 inline constexpr double kTremorWarmS = 0.6;            // a residual is used this long after its filter starts
+inline constexpr double kTremorJointHoldS = 0.1;       // a joint missing no longer than this keeps its filter
 inline constexpr double kTremorGateSpan = 0.3;         // prediction gain at which a channel counts fully
 inline constexpr double kTremorClip = 3.0;             // residuals clipped at this many RMS of the error
 inline constexpr double kTremorAmplitudeFullM = 0.015; // amplitude: cancelled fully up to this (m; 3 cm peak to peak)
@@ -98,7 +102,8 @@ class TremorCancel {
   double dt_mean_ = 0.0;
   double fit_age_s_ = 0.0;                         // since the regressors' filter started
   std::array<std::array<HighPass, 3>, kJointCount> sig_hp_{};
-  std::array<double, kJointCount> joint_age_s_{};  // since each joint's filter started (-1: missing)
+  std::array<double, kJointCount> joint_age_s_{};  // since each joint's filter started (-1: none yet)
+  std::array<double, kJointCount> joint_last_t_{}; // ... and its last row
   // The hand's running spectrum: per bin and axis, sum lambda^k r e^{-i w t} (re, im).
   std::array<std::array<std::array<double, 2>, 3>, kTremorBins> spec_{};
   double freq_hz_ = 0.0;                           // the oscillator's frequency (0: none yet)
