@@ -40,12 +40,12 @@ hs::HandSeries with_tremor(const hs::HandSeries& clean, double lo_hz, double hi_
   return hs::corrupt_series(clean, c, seed);
 }
 
-// Mean joint distance (mm) over rows from `from_s` on.
-double mean_error_mm(const hs::HandSeries& a, const hs::HandSeries& truth, double from_s) {
+// Mean joint distance (mm) over rows from `from_s` on (to `to_s`).
+double mean_error_mm(const hs::HandSeries& a, const hs::HandSeries& truth, double from_s, double to_s = 1e9) {
   double s = 0.0;
   int n = 0;
   for (size_t i = 0; i < a.size(); ++i) {
-    if (a.t[i] - a.t.front() < from_s) continue;
+    if (a.t[i] - a.t.front() < from_s || a.t[i] - a.t.front() >= to_s) continue;
     for (int j = 0; j < hs::kJointCount; ++j) {
       if (!hs::joint_tracked(a.pos[i], j)) continue;
       s += (a.pos[i].row(j) - truth.pos[i].row(j)).norm();
@@ -124,6 +124,29 @@ TEST_CASE("Tremor canceller: the corruption's wandering tremor on a moving hand,
                  << after << " mm; the hand bent by " << bend_before << " -> " << bend_after << " mm");
     CHECK(after < c.at_most * before);
     CHECK(bend_after <= bend_before);
+  }
+}
+
+TEST_CASE("Tremor canceller: it starts within a second of tracking starting") {
+  // Hands come into view and leave all the time, and a take may last two seconds (FPHA's
+  // do): a canceller that needs 1.5 s to start misses most of them. Ten 2 s takes of a
+  // moving hand with the corruption's 4-6 Hz tremor, each a new hand; the error over each
+  // take's second second. With the warm-ups in a row (joints, then oscillator, then fit)
+  // and the prominence's fixed sides, 0.69 of it was left there.
+  for (const double rate : {90.0, 30.0}) {
+    double before = 0.0, after = 0.0;
+    for (uint64_t seed = 1; seed <= 10; ++seed) {
+      hs::SynthMotionParams p;
+      p.duration_s = 2.0;
+      p.rate_hz = rate;
+      const hs::HandSeries truth = hs::synth_motion(p, hs::Hand::Right, 100 + seed);
+      const hs::HandSeries noisy = with_tremor(truth, 4.0, 6.0, 0.004, seed);
+      before += mean_error_mm(noisy, truth, 1.0, 2.0);
+      after += mean_error_mm(cancelled(noisy), truth, 1.0, 2.0);
+    }
+    MESSAGE("4-6 Hz, 4 mm at " << rate << " Hz, from 1 to 2 s after the start: " << before / 10 << " -> " << after / 10
+                                << " mm");
+    CHECK(after < 0.45 * before);
   }
 }
 

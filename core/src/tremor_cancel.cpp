@@ -14,6 +14,7 @@ constexpr double kRidge = 1e-3;          // of the window's rows: keeps the 2 x 
 static_assert(kTremorMinHz - kTremorProminenceOffHz >= kTremorSpectrumLoHz);
 static_assert(kTremorMaxHz * (1.0 + kTremorProminenceOffShare) <= kTremorSpectrumLoHz + kTremorStepHz * (kTremorBins - 1) + 1e-9);
 static_assert(kTremorMinHz * kTremorProminenceOffShare <= kTremorProminenceOffHz);  // the share widens only
+static_assert(kTremorStartHz >= kTremorMinHz && kTremorStartHz <= kTremorMaxHz);
 }  // namespace
 
 // Two critically damped alpha-beta trackers in a row (Brown's double exponential smoothing
@@ -39,6 +40,7 @@ void TremorCancel::reset() noexcept {
   t0_ = last_t_ = 0.0;
   dt_mean_ = 0.0;
   fit_age_s_ = 0.0;
+  spec_age_s_ = 0.0;
   joint_age_s_.fill(-1.0);
   joint_last_t_.fill(0.0);
   for (auto& bin : spec_)
@@ -69,8 +71,12 @@ double TremorCancel::peak_hz(double& prominence) const noexcept {
       if (const double p = power(k); p > best_p) best = k, best_p = p;
   prominence = 0.0;
   if (best < 0) return 0.0;
-  const int off = static_cast<int>(std::lround(std::max(kTremorProminenceOffHz, kTremorProminenceOffShare * hz(best)) / kTremorStepHz));
-  double side = power(best - off);
+  // The sides: far enough for the spectrum's resolution (early on, wider), and the low one
+  // no lower than the spectrum's first bin.
+  const double off_hz = std::max({kTremorProminenceOffHz, kTremorProminenceOffShare * hz(best),
+                                  spec_age_s_ > 0.0 ? kTremorResolutionCycles / spec_age_s_ : 1e9});
+  const int off = static_cast<int>(std::min<long>(std::lround(off_hz / kTremorStepHz), kTremorBins));
+  double side = power(std::max(best - off, 0));
   if (best + off < kTremorBins && hz(best + off) < top) side = std::max(side, power(best + off));
   prominence = side > 0.0 ? best_p / side : 1e9;
   double shift = 0.0;
@@ -110,26 +116,30 @@ void TremorCancel::apply(double t, Pose& pose) noexcept {
     }
     for (int a = 0; a < 3; ++a) r[js](a) = hp[static_cast<size_t>(a)].step(pose(j, a), jdt, w_hp);
     joint_age_s_[js] += jdt;
-    if (joint_age_s_[js] >= kTremorWarmS) {
+    if (joint_age_s_[js] >= kTremorJointWarmS) {
       use[js] = true;
       hand += r[js];
       ++warm;
     }
   }
-  // The oscillator and its regressors' filter run on every row, so that the weights learnt
-  // stay in phase with the tremor over rows too sparse to learn from.
+  // The oscillator and its regressors' filter run on every row from the first, so that
+  // the filter has settled when a peak is found and the weights learnt stay in phase with
+  // the tremor over rows too sparse to learn from.
   std::array<double, 2> x{};
-  if (freq_hz_ > 0.0) {
-    phase_ = std::remainder(phase_ + kTwoPi * freq_hz_ * dt, kTwoPi);
-    x = {std::sin(phase_), std::cos(phase_)};
-    for (int i = 0; i < 2; ++i) u_[static_cast<size_t>(i)] = reg_hp_[static_cast<size_t>(i)].step(x[static_cast<size_t>(i)], dt, w_hp);
-    fit_age_s_ += dt;
+  if (rows_ == 1) {
+    for (int i = 0; i < 2; ++i) reg_hp_[static_cast<size_t>(i)].start(i == 0 ? std::sin(phase_) : std::cos(phase_));
+    return;
   }
+  phase_ = std::remainder(phase_ + kTwoPi * (freq_hz_ > 0.0 ? freq_hz_ : kTremorStartHz) * dt, kTwoPi);
+  x = {std::sin(phase_), std::cos(phase_)};
+  for (int i = 0; i < 2; ++i) u_[static_cast<size_t>(i)] = reg_hp_[static_cast<size_t>(i)].step(x[static_cast<size_t>(i)], dt, w_hp);
+  fit_age_s_ += dt;
   if (warm < kTremorMinJoints) return;
   hand /= warm;
 
   // The hand's running spectrum, and the oscillator at its peak.
   const double ls = std::exp(-dt / kTremorSpectrumS);
+  spec_age_s_ += dt;
   // Each bin's phasor e^{i w_k tau}, from the first by rotation: two sin/cos pairs a row, not one a bin.
   double pc = std::cos(kTwoPi * kTremorSpectrumLoHz * tau), ps = std::sin(kTwoPi * kTremorSpectrumLoHz * tau);
   const double step_c = std::cos(kTwoPi * kTremorStepHz * tau), step_s = std::sin(kTwoPi * kTremorStepHz * tau);
@@ -146,16 +156,10 @@ void TremorCancel::apply(double t, Pose& pose) noexcept {
     }
   }
   double prominence = 0.0;
-  if (freq_hz_ == 0.0) {  // the oscillator starts with the fit
-    freq_hz_ = peak_hz(prominence);
-    if (freq_hz_ == 0.0) return;
-    for (int i = 0; i < 2; ++i) reg_hp_[static_cast<size_t>(i)].start(i == 0 ? std::sin(phase_) : std::cos(phase_));
-    fit_age_s_ = 0.0;
-    return;
-  }
   if (const double f = peak_hz(prominence); f > 0.0) freq_hz_ = f;
+  if (freq_hz_ == 0.0) return;
   const double prom_gate = std::clamp((prominence - kTremorProminenceLo) / (kTremorProminenceHi - kTremorProminenceLo), 0.0, 1.0);
-  if (fit_age_s_ < kTremorWarmS) return;  // the regressors' filter settles
+  if (fit_age_s_ < kTremorFitWarmS) return;  // the regressors' filter settles
 
   // Weights w = (R + ridge)^-1 b, 2 x 2.
   const double lw = std::exp(-dt / kTremorMemoryS);

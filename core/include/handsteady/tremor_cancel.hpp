@@ -38,6 +38,11 @@
 //   shake) swings centimetres. Where the largest joint's oscillation exceeds
 //   kTremorAmplitudeFullM, the cancelling fades, to nothing at kTremorAmplitudeOffM, for
 //   the whole hand (cancelling only part of a swing would bend the hand).
+// Start: tracking starts often (a hand comes into view) and a take may last 2 s, so the
+// warm-ups overlap: the oscillator and its regressors' filter run from the first row (at
+// kTremorStartHz until the spectrum has a peak), so the fit can start as soon as the joints'
+// residuals do (kTremorJointWarmS after their filters start: sooner, the filters' start
+// transients on a fast gesture's first rows read as a peak) and the spectrum resolves one.
 // A joint missing for a few rows (a tracker's dropped joints) keeps its filter, which
 // resumes with the time since its last row: restarting it at every drop kept joints from
 // warming up, and with 5 % of joints dropped per row nothing was cancelled at all.
@@ -63,12 +68,15 @@ inline constexpr int kTremorBins = 121;                // ... to 14.5 Hz
 inline constexpr double kTremorSpectrumS = 2.0;        // memory of the running spectrum
 inline constexpr double kTremorProminenceOffHz = 0.8;  // prominence: the peak's power over the larger at +-this,
 inline constexpr double kTremorProminenceOffShare = 0.16;  // ... or at +-this share of the peak's frequency, if further
+inline constexpr double kTremorResolutionCycles = 1.0;  // ... or at +-this / the spectrum's length, if further
 inline constexpr double kTremorProminenceLo = 5.0;     // ... below this, nothing is cancelled
 inline constexpr double kTremorProminenceHi = 20.0;    // ... from this on, all of it
 inline constexpr double kTremorNyquistShare = 0.4;     // frequencies looked for: below this share of the input rate
 inline constexpr double kTremorMemoryS = 0.2;          // memory of the amplitude and phase fit
 inline constexpr double kTremorHighPassHz = 2.0;       // the high-pass that keeps voluntary motion out
-inline constexpr double kTremorWarmS = 0.6;            // a residual is used this long after its filter starts
+inline constexpr double kTremorStartHz = 5.0;          // the oscillator's frequency until the spectrum has a peak
+inline constexpr double kTremorJointWarmS = 0.6;       // a joint's residual is used this long after its filter starts
+inline constexpr double kTremorFitWarmS = 0.6;         // ... and the regressors' filter this long after the oscillator
 inline constexpr double kTremorJointHoldS = 0.1;       // a joint missing no longer than this keeps its filter
 inline constexpr double kTremorGateSpan = 0.3;         // prediction gain at which a channel counts fully
 inline constexpr double kTremorClip = 3.0;             // residuals clipped at this many RMS of the error
@@ -84,7 +92,7 @@ class TremorCancel {
   // Learns from the row at time t (after the last one) and subtracts the tremor it has
   // learnt from its tracked joints. Missing joints (NaN) stay missing.
   void apply(double t, Pose& pose) noexcept;
-  // The tremor frequency it follows (Hz; 0: none yet).
+  // The tremor frequency it follows (Hz; 0: none found yet).
   double frequency_hz() const noexcept { return freq_hz_; }
 
  private:
@@ -101,12 +109,13 @@ class TremorCancel {
   int rows_ = 0;
   double dt_mean_ = 0.0;
   double fit_age_s_ = 0.0;                         // since the regressors' filter started
+  double spec_age_s_ = 0.0;                        // time the spectrum holds
   std::array<std::array<HighPass, 3>, kJointCount> sig_hp_{};
   std::array<double, kJointCount> joint_age_s_{};  // since each joint's filter started (-1: none yet)
   std::array<double, kJointCount> joint_last_t_{}; // ... and its last row
   // The hand's running spectrum: per bin and axis, sum lambda^k r e^{-i w t} (re, im).
   std::array<std::array<std::array<double, 2>, 3>, kTremorBins> spec_{};
-  double freq_hz_ = 0.0;                           // the oscillator's frequency (0: none yet)
+  double freq_hz_ = 0.0;                           // the spectrum's peak (0: none yet; the oscillator runs at kTremorStartHz)
   double phase_ = 0.0;                             // ... and phase (rad)
   std::array<HighPass, 2> reg_hp_{};               // the high-pass of its sin and cos
   std::array<double, 2> u_{};                      // ... this row
