@@ -20,11 +20,11 @@ namespace {
 using hs::Pose;
 using hs::TremorCancel;
 
-hs::HandSeries moving_hand(double seconds, double rate_hz, bool irregular = false) {
+hs::HandSeries moving_hand(double seconds, double rate_hz, bool irregular = false, uint64_t seed = 11) {
   hs::SynthMotionParams p;
   p.duration_s = seconds;
   p.rate_hz = rate_hz;
-  hs::HandSeries s = hs::synth_motion(p, hs::Hand::Right, 11);
+  hs::HandSeries s = hs::synth_motion(p, hs::Hand::Right, seed);
   if (irregular) {  // row k at (k + u) / rate, u in +-0.2 (the poses stay: truth and input share them)
     std::mt19937_64 rng(2);
     std::uniform_real_distribution<double> u(-0.2, 0.2);
@@ -136,10 +136,7 @@ TEST_CASE("Tremor canceller: it starts within a second of tracking starting") {
   for (const double rate : {90.0, 30.0}) {
     double before = 0.0, after = 0.0;
     for (uint64_t seed = 1; seed <= 10; ++seed) {
-      hs::SynthMotionParams p;
-      p.duration_s = 2.0;
-      p.rate_hz = rate;
-      const hs::HandSeries truth = hs::synth_motion(p, hs::Hand::Right, 100 + seed);
+      const hs::HandSeries truth = moving_hand(2.0, rate, false, 100 + seed);
       const hs::HandSeries noisy = with_tremor(truth, 4.0, 6.0, 0.004, seed);
       before += mean_error_mm(noisy, truth, 1.0, 2.0);
       after += mean_error_mm(cancelled(noisy), truth, 1.0, 2.0);

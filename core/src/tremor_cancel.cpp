@@ -125,14 +125,13 @@ void TremorCancel::apply(double t, Pose& pose) noexcept {
   // The oscillator and its regressors' filter run on every row from the first, so that
   // the filter has settled when a peak is found and the weights learnt stay in phase with
   // the tremor over rows too sparse to learn from.
-  std::array<double, 2> x{};
-  if (rows_ == 1) {
-    for (int i = 0; i < 2; ++i) reg_hp_[static_cast<size_t>(i)].start(i == 0 ? std::sin(phase_) : std::cos(phase_));
-    return;
+  phase_ = std::remainder(phase_ + kTwoPi * (freq_hz_ > 0.0 ? freq_hz_ : kTremorStartHz) * dt, kTwoPi);  // dt 0 on the first row
+  const std::array<double, 2> x{std::sin(phase_), std::cos(phase_)};
+  for (size_t i = 0; i < 2; ++i) {
+    if (rows_ == 1) reg_hp_[i].start(x[i]);
+    else u_[i] = reg_hp_[i].step(x[i], dt, w_hp);
   }
-  phase_ = std::remainder(phase_ + kTwoPi * (freq_hz_ > 0.0 ? freq_hz_ : kTremorStartHz) * dt, kTwoPi);
-  x = {std::sin(phase_), std::cos(phase_)};
-  for (int i = 0; i < 2; ++i) u_[static_cast<size_t>(i)] = reg_hp_[static_cast<size_t>(i)].step(x[static_cast<size_t>(i)], dt, w_hp);
+  if (rows_ == 1) return;
   fit_age_s_ += dt;
   if (warm < kTremorMinJoints) return;
   hand /= warm;
