@@ -232,10 +232,19 @@ class KalmanFilter final : public JointwiseFilter<KalmanFilter> {
 
 // A stage that rewrites each row before the method sees it, learnt per hand: the palm fit
 // (palm_fit.hpp: the palm joints fitted to the hand's rigid palm) or the tremor canceller
-// (tremor_cancel.hpp). After a tracking gap the hand may be another (or the tracker
-// re-estimates its shape, as Leap Motion does): the stage learns anew.
+// (tremor_cancel.hpp). A tracking gap (kModelResetGapS without a tracked row, whatever
+// untracked rows come between: gap_policy.hpp) starts a new take: the palm fit keeps its
+// template, which the take's first row checks (the same person's hand usually comes
+// back); the canceller starts anew (its oscillator's phase does not carry over a gap).
+inline bool any_joint_finite(const Pose& p) noexcept {
+  for (int j = 0; j < kJointCount; ++j)
+    if (joint_finite(p, j)) return true;
+  return false;
+}
 inline void apply_stage(PalmFit& fit, double, Pose& row) noexcept { fit.apply(row); }
 inline void apply_stage(TremorCancel& cancel, double t, Pose& row) noexcept { cancel.apply(t, row); }
+inline void resume_stage(PalmFit& fit) noexcept { fit.resume(); }
+inline void resume_stage(TremorCancel& cancel) noexcept { cancel.reset(); }
 
 template <class Stage>
 class StageFilter final : public PoseFilter {
@@ -244,11 +253,19 @@ class StageFilter final : public PoseFilter {
   void reset() noexcept override {
     stage_.reset();
     inner_->reset();
+    last_tracked_ = kNaN;
+  }
+  void restart() noexcept override {
+    resume_stage(stage_);
+    inner_->restart();
+    last_tracked_ = kNaN;
   }
   bool push(double t, const Pose& observed) noexcept override {
-    const double last = inner_->last_time();
-    if (!is_next_time(t, last)) return false;  // the stage learns from no row the filter refuses
-    if (std::isfinite(last) && t - last > kModelResetGapS) stage_.reset();
+    if (!is_next_time(t, inner_->last_time())) return false;  // the stage learns from no row the filter refuses
+    if (any_joint_finite(observed)) {
+      if (t - last_tracked_ > kModelResetGapS) resume_stage(stage_);  // false while last_tracked_ is NaN
+      last_tracked_ = t;
+    }
     row_ = observed;
     apply_stage(stage_, t, row_);
     return inner_->push(t, row_);
@@ -260,6 +277,7 @@ class StageFilter final : public PoseFilter {
   std::unique_ptr<PoseFilter> inner_;
   Stage stage_;
   Pose row_ = untracked_pose();
+  double last_tracked_ = kNaN;  // the last row with a tracked joint (NaN: none since the start)
 };
 
 void require(bool ok, std::string_view what, double value) {

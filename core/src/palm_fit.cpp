@@ -96,6 +96,32 @@ void distance_scores(const std::array<V3, P>& a, const std::array<V3, P>& b, con
   }
 }
 
+// The used joints off the template's fit by more than cut: the worst left out and the rest
+// refitted, up to kPalmMaxOutliers times (every used joint when no fit is possible).
+template <size_t P>
+std::array<bool, P> off_joints(const std::array<V3, P>& a, const std::array<V3, P>& b, const std::array<bool, P>& use,
+                               double cut) {
+  std::array<bool, P> in = use, off{};
+  Rigid fit;
+  for (int left = 0;; ++left) {
+    if (!kabsch(a, b, in, fit)) return use;
+    size_t worst = P;
+    double worst_e = cut;
+    for (size_t i = 0; i < P; ++i)
+      if (in[i]) {
+        const double e = (fit.apply(a[i]) - b[i]).norm();
+        if (e > worst_e) {
+          worst_e = e;
+          worst = i;
+        }
+      }
+    if (worst == P || left == kPalmMaxOutliers) break;
+    in[worst] = false;
+  }
+  for (size_t i = 0; i < P; ++i) off[i] = use[i] && (fit.apply(a[i]) - b[i]).norm() > cut;
+  return off;
+}
+
 }  // namespace
 
 void PalmFit::reset() noexcept {
@@ -108,6 +134,27 @@ void PalmFit::reset() noexcept {
   off_run_.fill(0);
   unfit_run_ = 0;
   last_scale_ = 0.0;
+  check_ = 0;
+}
+
+void PalmFit::resume() noexcept {
+  // The runs belong to the last take; its scale too (Leap Motion re-measures the hand's
+  // size between takes).
+  off_run_.fill(0);
+  unfit_run_ = 0;
+  last_scale_ = 0.0;
+  check_ = rows_ > 0 ? 2 : 0;
+  check_off_.fill(false);
+}
+
+void PalmFit::start(const std::array<V3, kP>& b, const std::array<bool, kP>& have) noexcept {
+  reset();
+  for (size_t i = 0; i < kP; ++i)
+    if (have[i]) {
+      tmpl_[i] = {b[i].x(), b[i].y(), b[i].z()};
+      count_[i] = 1.0;
+    }
+  rows_ = 1;
 }
 
 void PalmFit::learn(size_t i, const V3& local) noexcept {
@@ -131,12 +178,7 @@ void PalmFit::apply(Pose& pose) noexcept {
   }
   if (n_have < kPalmMinPoints) return;
   if (rows_ == 0) {  // the first row sets the template
-    for (size_t i = 0; i < kP; ++i)
-      if (have[i]) {
-        tmpl_[i] = {b[i].x(), b[i].y(), b[i].z()};
-        count_[i] = 1.0;
-      }
-    rows_ = 1;
+    start(b, have);
     return;
   }
   if (n_use < kPalmMinPoints) return;
@@ -171,6 +213,29 @@ void PalmFit::apply(Pose& pose) noexcept {
   // the first rows' outliers into the template and the residual scale.
   const double scale = resid_rows_ >= 1.0 ? std::sqrt(resid2_) : kPalmFirstCutM / kPalmOutlier;
   const double cut = std::max(kPalmOutlier * scale, kPalmOutlierFloorM);
+  // A resumed take: is this the hand the template learnt? A row that fits it but for one
+  // joint is; otherwise the row passes unchanged and the next decides: two joints or more
+  // off in both rows are another hand (or one its tracker re-measured), which starts a new
+  // template; a tracker's outliers (the `paper` corruption's shifts of up to a fifth of the
+  // joints) seldom hit the same joint twice running.
+  if (check_ > 0) {
+    const std::array<bool, kP> off = off_joints(a, b, use, cut);
+    int n_off = 0, n_both = 0;
+    for (size_t i = 0; i < kP; ++i) {
+      n_off += off[i];
+      n_both += off[i] && check_off_[i];
+    }
+    if (check_ == 2 && n_off > 1) {
+      check_off_ = off;
+      check_ = 1;
+      return;
+    }
+    check_ = 0;
+    if (n_both > 1) {
+      start(b, have);
+      return;
+    }
+  }
   std::array<double, kP> score{};
   distance_scores(a, b, use, last_scale_, score);
   const std::array<bool, kP> candidate = use;

@@ -159,8 +159,9 @@ void TrackerFilter::run_worker() noexcept {
   }
 }
 
-void TrackerFilter::restart(XrTime t) noexcept {
-  engine_->reset();
+void TrackerFilter::restart(XrTime t, bool same_hand) noexcept {
+  if (same_hand) engine_->restart();
+  else engine_->reset();
   running_ = true;
   behind_ = 0;
   epoch_ = start_ = last_ = t;
@@ -177,7 +178,7 @@ void TrackerFilter::process(const Sample& s) noexcept {
   // clock); refusing such times keeps the path's knot times from overflowing.
   if (s.t <= 0 || s.t > std::numeric_limits<XrTime>::max() / 4) return;
   if (!running_) {
-    restart(s.t);
+    restart(s.t, false);
   } else {
     const XrTime dt = s.t - last_;  // both positive: no overflow
     if (dt < kMinStep) {
@@ -185,10 +186,12 @@ void TrackerFilter::process(const Sample& s) noexcept {
       // times stay far behind the last sample has the clock been reset (or one far-future
       // time got in): then start over rather than ignore every later sample.
       if (static_cast<double>(-dt) <= reset_gap_ns_ || ++behind_ < 3) return;
-      restart(s.t);
+      restart(s.t, false);
     } else if (static_cast<double>(dt) > reset_gap_ns_ ||
                hand_jumped(centre_, gate.centre, static_cast<double>(dt) * 1e-9, limits_)) {
-      restart(s.t);  // lost for too long, or somewhere no hand could have moved to
+      // Lost for too long, or somewhere no hand could have moved to: the motion starts
+      // over, what the engine learnt of the hand's shape is kept (and checked).
+      restart(s.t, true);
     }
   }
   // What the engine had predicted for this sample: its response to the innovation is the
@@ -209,7 +212,7 @@ void TrackerFilter::process(const Sample& s) noexcept {
     const bool wild = joint_tracked(obs, j) && !std::isnan(est(j, 0)) &&
                       !((est.row(j) - obs.row(j)).norm() <= kMaxDeviationM);
     if (wild) {
-      restart(s.t);
+      restart(s.t, false);
       engine_->push(0.0, obs);
       engine_->estimate(0.0, est);
       first = true;

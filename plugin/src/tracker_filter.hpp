@@ -132,7 +132,8 @@ class TrackerFilter {
   // pending: a sample (gated) the published state does not include yet, or nullptr.
   bool answer(XrTime query_time, const Sample* pending, Answer& out) const noexcept;
   void process(const Sample& s) noexcept;  // engine thread only
-  void restart(XrTime t) noexcept;         // engine thread only
+  // Engine thread only. same_hand: the engine keeps what it learnt of the hand (PoseFilter::restart).
+  void restart(XrTime t, bool same_hand) noexcept;
   void publish() noexcept;                 // engine thread only
   void run_worker() noexcept;
   double seconds(XrTime t) const { return static_cast<double>(t - epoch_) * 1e-9; }

@@ -31,7 +31,14 @@ inline bool is_next_time(double t, double last) noexcept {
 class PoseFilter {
  public:
   virtual ~PoseFilter() = default;
+  // Forgets everything: the next row starts a new hand.
   virtual void reset() noexcept = 0;
+  // Tracking of the same hand resumes (after a gap, or somewhere else): forgets the motion
+  // but keeps what it learnt of the hand itself (the palm fit's template, which the new
+  // take's first row checks). The same as reset() for a method that learns
+  // nothing of the hand. A filter does the same by itself when a tracked row comes more
+  // than kModelResetGapS after the last tracked one (untracked rows between do not count).
+  virtual void restart() noexcept { reset(); }
   // Feeds one observation. Returns false and leaves the state untouched when t is not
   // finite or not after the last accepted time. NaN rows = joints missing in this frame;
   // non-finite coordinates are treated as missing.

@@ -17,7 +17,9 @@
 // fills missing palm joints from the fit once the template knows them. Robust to its own
 // mistakes: a joint off the fit several rows running is not an outlier but a template
 // point learnt wrong (or a shape the tracker changed), and is learnt anew; rows no fit
-// agrees with, many running, start a new template. A joint whose typical (median)
+// agrees with, many running, start a new template. A new take of the same hand (resume():
+// tracking came back after a gap) keeps the template, unless the take's first two rows
+// disagree with it in the same joints (another hand): then a new one. A joint whose typical (median)
 // residual stays above the other joints' does not move with the palm in this tracker
 // (ManipNet's THUMB_METACARPAL sits on the moving thumb; Leap Motion's WRIST bends under a
 // millimetre against the knuckles): it passes through, unless it is far off
@@ -58,6 +60,12 @@ class PalmFit {
   PalmFit() { reset(); }
   // Forgets the template (a new hand).
   void reset() noexcept;
+  // A new take of the same hand (tracking resumed after a gap): keeps the template and
+  // what it learnt of the tracker's noise. The take's first row it can fit checks the
+  // template: one that fits but for a joint is fitted; else it passes unchanged and the
+  // next decides: two or more joints off in both start a new template from it (another
+  // hand, or a tracker that re-measured this one).
+  void resume() noexcept;
   // Learns from the row and replaces its palm joints by the fitted template (see above).
   // Rows with non-finite joints: those joints are missing.
   void apply(Pose& pose) noexcept;
@@ -67,6 +75,8 @@ class PalmFit {
  private:
   static constexpr size_t kP = kPalmJoints.size();
   void learn(size_t i, const Eigen::Vector3d& local) noexcept;  // one row more of template point i
+  // A new template from this row alone (the present joints of b).
+  void start(const std::array<Eigen::Vector3d, kP>& b, const std::array<bool, kP>& have) noexcept;
   std::array<std::array<double, 3>, kP> tmpl_{};  // the template, in its own frame
   std::array<double, kP> count_{};                // rows each template point has learnt from
   int rows_ = 0;
@@ -76,6 +86,8 @@ class PalmFit {
   std::array<int, kP> off_run_{};               // rows running the joint was an outlier
   int unfit_run_ = 0;                           // rows running with no fit
   double last_scale_ = 0.0;                     // the last fit's scale (0: none yet)
+  int check_ = 0;                               // a resumed take's rows to check the template by (2, 1; 0: none)
+  std::array<bool, kP> check_off_{};            // the joints off it in the first checked row
 };
 
 }  // namespace hs
