@@ -234,7 +234,7 @@ class KalmanFilter final : public JointwiseFilter<KalmanFilter> {
 // (palm_fit.hpp: the palm joints fitted to the hand's rigid palm) or the tremor canceller
 // (tremor_cancel.hpp). A tracking gap (kModelResetGapS without a tracked row, whatever
 // untracked rows come between: gap_policy.hpp) starts a new take: the palm fit keeps its
-// template, which the take's first row checks (the same person's hand usually comes
+// template, which the take's first rows check (the same person's hand usually comes
 // back); the canceller starts anew (its oscillator's phase does not carry over a gap).
 inline bool any_joint_finite(const Pose& p) noexcept {
   for (int j = 0; j < kJointCount; ++j)

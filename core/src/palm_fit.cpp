@@ -96,29 +96,34 @@ void distance_scores(const std::array<V3, P>& a, const std::array<V3, P>& b, con
   }
 }
 
+// The used joint with the largest error above `limit` (P: none).
+template <size_t P>
+size_t worst_above(const std::array<double, P>& err, const std::array<bool, P>& use, double limit) {
+  size_t worst = P;
+  for (size_t i = 0; i < P; ++i)
+    if (use[i] && err[i] > limit) {
+      limit = err[i];
+      worst = i;
+    }
+  return worst;
+}
+
 // The used joints off the template's fit by more than cut: the worst left out and the rest
 // refitted, up to kPalmMaxOutliers times (every used joint when no fit is possible).
 template <size_t P>
 std::array<bool, P> off_joints(const std::array<V3, P>& a, const std::array<V3, P>& b, const std::array<bool, P>& use,
                                double cut) {
   std::array<bool, P> in = use, off{};
+  std::array<double, P> resid{};
   Rigid fit;
   for (int left = 0;; ++left) {
     if (!kabsch(a, b, in, fit)) return use;
-    size_t worst = P;
-    double worst_e = cut;
-    for (size_t i = 0; i < P; ++i)
-      if (in[i]) {
-        const double e = (fit.apply(a[i]) - b[i]).norm();
-        if (e > worst_e) {
-          worst_e = e;
-          worst = i;
-        }
-      }
+    for (size_t i = 0; i < P; ++i) resid[i] = use[i] ? (fit.apply(a[i]) - b[i]).norm() : 0.0;
+    const size_t worst = worst_above(resid, in, cut);
     if (worst == P || left == kPalmMaxOutliers) break;
     in[worst] = false;
   }
-  for (size_t i = 0; i < P; ++i) off[i] = use[i] && (fit.apply(a[i]) - b[i]).norm() > cut;
+  for (size_t i = 0; i < P; ++i) off[i] = use[i] && resid[i] > cut;
   return off;
 }
 
@@ -240,16 +245,6 @@ void PalmFit::apply(Pose& pose) noexcept {
   distance_scores(a, b, use, last_scale_, score);
   const std::array<bool, kP> candidate = use;
   int n_in = n_use, left = 0;
-  // The used joint with the largest error above `limit` (kP: none).
-  auto worst_above = [&](const std::array<double, kP>& err, double limit) {
-    size_t worst = kP;
-    for (size_t i = 0; i < kP; ++i)
-      if (use[i] && err[i] > limit) {
-        limit = err[i];
-        worst = i;
-      }
-    return worst;
-  };
   // Leaves joint i out of the fit; false when too many disagree: no fit this row. Many
   // such rows running: the hand is not the one the template learnt (a tracker that
   // changed its shape), so it is learnt anew.
@@ -263,14 +258,14 @@ void PalmFit::apply(Pose& pose) noexcept {
     ++left;
     return true;
   };
-  for (size_t w; (w = worst_above(score, cut)) != kP;)
+  for (size_t w; (w = worst_above(score, use, cut)) != kP;)
     if (!leave(w)) return;
   Rigid fit;
   std::array<double, kP> resid{};
   for (;;) {
     if (!kabsch(a, b, use, fit)) return;
     for (size_t i = 0; i < kP; ++i) resid[i] = use[i] ? (fit.apply(a[i]) - b[i]).norm() : 0.0;
-    const size_t w = worst_above(resid, cut);
+    const size_t w = worst_above(resid, use, cut);
     if (w == kP) break;
     if (!leave(w)) return;
   }

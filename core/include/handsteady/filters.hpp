@@ -35,7 +35,7 @@ class PoseFilter {
   virtual void reset() noexcept = 0;
   // Tracking of the same hand resumes (after a gap, or somewhere else): forgets the motion
   // but keeps what it learnt of the hand itself (the palm fit's template, which the new
-  // take's first row checks). The same as reset() for a method that learns
+  // take's first rows check). The same as reset() for a method that learns
   // nothing of the hand. A filter does the same by itself when a tracked row comes more
   // than kModelResetGapS after the last tracked one (untracked rows between do not count).
   virtual void restart() noexcept { reset(); }
