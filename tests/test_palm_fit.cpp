@@ -269,9 +269,10 @@ TEST_CASE("Palm fit: a resumed take keeps the template from its first row, anoth
     }
     CHECK(fit.rows() == hs::kPalmMinRows - 1);  // from the take's second row
   }
-  // The same hand with 30 mm outliers in three joints of the take's first two rows, other
-  // joints in each (the `paper` corruption's kind of row): the first passes through, the
-  // second keeps the template and its outliers are put back.
+  // The same hand with 30 mm outliers in three joints of the take's first two rows (the
+  // `paper` corruption's kind of row), two of them the same joints but shifted another
+  // way: the first row passes through, the second keeps the template and its outliers are
+  // put back. (Counting the joints off in both rows alone took this for another hand.)
   {
     PalmFit fit;
     for (size_t i = 0; i < take; ++i) {
@@ -281,7 +282,7 @@ TEST_CASE("Palm fit: a resumed take keeps the template from its first row, anoth
     fit.resume();
     using Joints = std::array<int, 3>;
     const Joints first = {hs::idx(Joint::RingProximal), hs::idx(Joint::Palm), hs::idx(Joint::ThumbMetacarpal)};
-    const Joints second = {hs::idx(Joint::Palm), hs::idx(Joint::IndexProximal), hs::idx(Joint::Wrist)};
+    const Joints second = {hs::idx(Joint::Palm), hs::idx(Joint::RingProximal), hs::idx(Joint::Wrist)};
     const auto shifted = [](Pose row, const Joints& off) {
       for (size_t k = 0; k < off.size(); ++k) row(off[k], static_cast<int>(k)) += 0.03;
       return row;

@@ -109,12 +109,15 @@ size_t worst_above(const std::array<double, P>& err, const std::array<bool, P>& 
 }
 
 // The used joints off the template's fit by more than cut: the worst left out and the rest
-// refitted, up to kPalmMaxOutliers times (every used joint when no fit is possible).
+// refitted, up to kPalmMaxOutliers times (every used joint when no fit is possible). `moved`:
+// how far each joint is from its template point in the template's frame (what another
+// hand's proportions move it by; zero without a fit).
 template <size_t P>
 std::array<bool, P> off_joints(const std::array<V3, P>& a, const std::array<V3, P>& b, const std::array<bool, P>& use,
-                               double cut) {
+                               double cut, std::array<V3, P>& moved) {
   std::array<bool, P> in = use, off{};
   std::array<double, P> resid{};
+  moved.fill(V3::Zero());
   Rigid fit;
   for (int left = 0;; ++left) {
     if (!kabsch(a, b, in, fit)) return use;
@@ -123,7 +126,10 @@ std::array<bool, P> off_joints(const std::array<V3, P>& a, const std::array<V3, 
     if (worst == P || left == kPalmMaxOutliers) break;
     in[worst] = false;
   }
-  for (size_t i = 0; i < P; ++i) off[i] = use[i] && resid[i] > cut;
+  for (size_t i = 0; i < P; ++i) {
+    off[i] = use[i] && resid[i] > cut;
+    moved[i] = use[i] ? V3(fit.invert(b[i]) - a[i]) : V3::Zero();
+  }
   return off;
 }
 
@@ -220,18 +226,22 @@ void PalmFit::apply(Pose& pose) noexcept {
   const double cut = std::max(kPalmOutlier * scale, kPalmOutlierFloorM);
   // A resumed take: is this the hand the template learnt? A row that fits it but for one
   // joint is; otherwise the row passes unchanged and the next decides: two joints or more
-  // off in both rows are another hand (or one its tracker re-measured), which starts a new
-  // template; a tracker's outliers (the `paper` corruption's shifts of up to a fifth of the
-  // joints) seldom hit the same joint twice running.
+  // off in both rows, each moved the same way (within the cut), are another hand (or one
+  // its tracker re-measured), which starts a new template. A tracker's outliers (the
+  // `paper` corruption's shifts of up to a fifth of the joints) seldom hit the same joint
+  // twice running, and when they do, not by the same offset: counting the same joints
+  // alone started a new template from a row of outliers in 3 % of FPHA's takes.
   if (check_ > 0) {
-    const std::array<bool, kP> off = off_joints(a, b, use, cut);
+    std::array<V3, kP> moved{};
+    const std::array<bool, kP> off = off_joints(a, b, use, cut, moved);
     int n_off = 0, n_both = 0;
     for (size_t i = 0; i < kP; ++i) {
       n_off += off[i];
-      n_both += off[i] && check_off_[i];
+      n_both += off[i] && check_off_[i] && (moved[i] - check_moved_[i]).norm() <= cut;
     }
     if (check_ == 2 && n_off > 1) {
       check_off_ = off;
+      check_moved_ = moved;
       check_ = 1;
       return;
     }

@@ -19,7 +19,7 @@
 // point learnt wrong (or a shape the tracker changed), and is learnt anew; rows no fit
 // agrees with, many running, start a new template. A new take of the same hand (resume():
 // tracking came back after a gap) keeps the template, unless the take's first two rows
-// disagree with it in the same joints (another hand): then a new one. A joint whose typical (median)
+// disagree with it in the same joints, moved the same way (another hand): then a new one. A joint whose typical (median)
 // residual stays above the other joints' does not move with the palm in this tracker
 // (ManipNet's THUMB_METACARPAL sits on the moving thumb; Leap Motion's WRIST bends under a
 // millimetre against the knuckles): it passes through, unless it is far off
@@ -63,8 +63,8 @@ class PalmFit {
   // A new take of the same hand (tracking resumed after a gap): keeps the template and
   // what it learnt of the tracker's noise. The take's first row it can fit checks the
   // template: one that fits but for a joint is fitted; else it passes unchanged and the
-  // next decides: two or more joints off in both start a new template from it (another
-  // hand, or a tracker that re-measured this one).
+  // next decides: two or more joints off in both, moved alike, start a new template from
+  // it (another hand, or a tracker that re-measured this one).
   void resume() noexcept;
   // Learns from the row and replaces its palm joints by the fitted template (see above).
   // Rows with non-finite joints: those joints are missing.
@@ -88,6 +88,7 @@ class PalmFit {
   double last_scale_ = 0.0;                     // the last fit's scale (0: none yet)
   int check_ = 0;                               // a resumed take's rows to check the template by (2, 1; 0: none)
   std::array<bool, kP> check_off_{};            // the joints off it in the first checked row
+  std::array<Eigen::Vector3d, kP> check_moved_{};  // and how far each had moved (template frame)
 };
 
 }  // namespace hs
