@@ -236,11 +236,6 @@ class KalmanFilter final : public JointwiseFilter<KalmanFilter> {
 // untracked rows come between: gap_policy.hpp) starts a new take: the palm fit keeps its
 // template, which the take's first rows check (the same person's hand usually comes
 // back); the canceller starts anew (its oscillator's phase does not carry over a gap).
-inline bool any_joint_finite(const Pose& p) noexcept {
-  for (int j = 0; j < kJointCount; ++j)
-    if (joint_finite(p, j)) return true;
-  return false;
-}
 inline void apply_stage(PalmFit& fit, double, Pose& row) noexcept { fit.apply(row); }
 inline void apply_stage(TremorCancel& cancel, double t, Pose& row) noexcept { cancel.apply(t, row); }
 inline void resume_stage(PalmFit& fit) noexcept { fit.resume(); }

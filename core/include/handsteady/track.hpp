@@ -35,6 +35,12 @@ inline bool joint_finite(const Pose& p, int j) noexcept {
   return std::isfinite(p(j, 0)) && std::isfinite(p(j, 1)) && std::isfinite(p(j, 2));
 }
 bool any_joint_tracked(const Pose& p);
+// A joint with all three coordinates finite (what a filter takes for a tracked row).
+inline bool any_joint_finite(const Pose& p) noexcept {
+  for (int j = 0; j < kJointCount; ++j)
+    if (joint_finite(p, j)) return true;
+  return false;
+}
 int tracked_joint_count(const Pose& p);
 
 struct TrackRow {
