@@ -297,6 +297,7 @@ TEST_CASE("joint rewrite: weight, smoothing and garbage, an estimate elsewhere r
                               XR_SPACE_LOCATION_ORIENTATION_VALID_BIT | XR_SPACE_LOCATION_ORIENTATION_TRACKED_BIT;
     joints[j].pose.position = xr::to_xr(Eigen::Vector3d(raw.row(j).transpose()));
     joints[j].pose.orientation = {0, 0, 0, 1};
+    joints[j].radius = 0.01f;
   }
   joints[9].pose.position = {0.0f, 0.0f, 0.0f};  // garbage flagged tracked
   auto centre = [](Pose p) { return gate_joints(p).centre; };
@@ -339,6 +340,7 @@ TEST_CASE("repair: a garbage joint takes the plausible joint fewest bones away, 
     joints[j].pose.orientation = {0, 0, 0, 1};
     joints[j].locationFlags = XR_SPACE_LOCATION_POSITION_VALID_BIT | XR_SPACE_LOCATION_POSITION_TRACKED_BIT |
                               XR_SPACE_LOCATION_ORIENTATION_VALID_BIT | XR_SPACE_LOCATION_ORIENTATION_TRACKED_BIT;
+    joints[j].radius = 0.01f;
   }
   // The ring finger's metacarpal, proximal and intermediate at the origin, flagged tracked.
   const int meta = XR_HAND_JOINT_RING_METACARPAL_EXT, prox = XR_HAND_JOINT_RING_PROXIMAL_EXT,
@@ -358,6 +360,50 @@ TEST_CASE("repair: a garbage joint takes the plausible joint fewest bones away, 
     CHECK((joints[j].locationFlags & XR_SPACE_LOCATION_POSITION_TRACKED_BIT) == 0);
   }
   CHECK((at(inter) - truth(inter)).norm() < 0.04);
+}
+
+TEST_CASE("repair: a radius no hand has, where the position is valid, becomes a neighbour's") {
+  std::array<XrHandJointLocationEXT, kJointCount> joints{};
+  const Pose raw = hand_at(0.0);
+  for (int j = 0; j < kJointCount; ++j) {
+    joints[j].pose.position = xr::to_xr(Eigen::Vector3d(raw.row(j).transpose()));
+    joints[j].pose.orientation = {0, 0, 0, 1};
+    joints[j].locationFlags = XR_SPACE_LOCATION_POSITION_VALID_BIT | XR_SPACE_LOCATION_POSITION_TRACKED_BIT |
+                              XR_SPACE_LOCATION_ORIENTATION_VALID_BIT | XR_SPACE_LOCATION_ORIENTATION_TRACKED_BIT;
+    joints[j].radius = 0.005f + 0.0001f * static_cast<float>(j);  // each joint its own, to see whose is taken
+  }
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const int inter = XR_HAND_JOINT_INDEX_INTERMEDIATE_EXT, distal = XR_HAND_JOINT_INDEX_DISTAL_EXT,
+            tip = XR_HAND_JOINT_INDEX_TIP_EXT, ring = XR_HAND_JOINT_RING_PROXIMAL_EXT,
+            little = XR_HAND_JOINT_LITTLE_PROXIMAL_EXT, thumb = XR_HAND_JOINT_THUMB_TIP_EXT;
+  joints[inter].radius = nan;
+  joints[distal].radius = 0.0f;
+  joints[tip].radius = -0.01f;
+  joints[ring].radius = 1e30f;
+  joints[little].radius = std::numeric_limits<float>::infinity();
+  // Not valid: its radius is undefined, neither repaired nor taken.
+  joints[thumb].locationFlags = 0;
+  joints[thumb].radius = 0.5f;
+  const JointMask none{};
+  CHECK(repair_garbage(none, joints.data(), nullptr) == 5);
+  for (int j = 0; j < kJointCount; ++j) {
+    if (j == thumb) continue;
+    CHECK(joints[j].radius > 0.0f);
+    CHECK(joints[j].radius < 0.1f);
+  }
+  CHECK(joints[thumb].radius == 0.5f);
+  // The nearest usable joint up or down the finger, the ancestor on a tie, never a repaired one.
+  const float proximal = 0.005f + 0.0001f * static_cast<float>(XR_HAND_JOINT_INDEX_PROXIMAL_EXT);
+  CHECK(joints[inter].radius == proximal);  // one bone up; the distal below is bad too
+  CHECK(joints[distal].radius == proximal);  // two up, none closer: not the intermediate repaired before it
+  CHECK(joints[tip].radius == proximal);
+  CHECK(joints[ring].radius == 0.005f + 0.0001f * static_cast<float>(XR_HAND_JOINT_RING_METACARPAL_EXT));
+
+  // No usable radius at all: a defined default, a finger's.
+  for (auto& j : joints) j.radius = nan;
+  joints[thumb].locationFlags = joints[0].locationFlags;
+  CHECK(repair_garbage(none, joints.data(), nullptr) == kJointCount);
+  for (const auto& j : joints) CHECK(j.radius == doctest::Approx(0.009).epsilon(0.15));
 }
 
 TEST_CASE("repair: non-finite or impossible velocities lose their valid bit") {

@@ -11,6 +11,14 @@ namespace {
 constexpr XrSpaceLocationFlags kTracked = XR_SPACE_LOCATION_POSITION_VALID_BIT | XR_SPACE_LOCATION_POSITION_TRACKED_BIT;
 constexpr double kMaxSpeed = 50.0;         // m/s: no joint of a hand moves faster
 constexpr double kMaxAngularSpeed = 1000.0;  // rad/s: beyond noisy joint frames (tracker jitter over 2 cm bones)
+// A joint's radius must be positive where its position is valid (XR_EXT_hand_tracking);
+// no joint of a human hand is 10 cm thick. Fallbacks where no joint's radius is usable:
+// about a finger's half-thickness, a little less at the tips.
+constexpr float kMaxRadius = 0.1f;
+constexpr float kDefaultRadius = 0.01f;
+constexpr float kDefaultTipRadius = 0.008f;
+
+bool radius_usable(float r) noexcept { return r > 0.0f && r < kMaxRadius; }  // false for NaN too
 
 // Component-wise median of the usable rows of `p` (NaN when none).
 Eigen::Vector3d median_centre(const Pose& p) {
@@ -60,6 +68,10 @@ JointMask garbage_joints(const XrHandJointLocationEXT* joints) noexcept {
 int repair_garbage(const JointMask& garbage, XrHandJointLocationEXT* joints, XrHandJointVelocityEXT* velocities) noexcept {
   const auto& parent = kXrParent;
   int changed = 0;  // a position is taken only from a joint not garbage, never from one repaired here
+  JointMask bad_radius{};  // likewise a radius, and only from a joint whose radius is defined (position valid)
+  for (int k = 0; k < kJointCount; ++k)
+    bad_radius[static_cast<size_t>(k)] =
+        !(joints[k].locationFlags & XR_SPACE_LOCATION_POSITION_VALID_BIT) || !radius_usable(joints[k].radius);
   for (int j = 0; j < kJointCount; ++j) {
     XrHandJointLocationEXT& loc = joints[j];
     if (garbage[j]) {
@@ -74,6 +86,11 @@ int repair_garbage(const JointMask& garbage, XrHandJointLocationEXT* joints, XrH
       loc.pose.orientation = k >= 0 && k < j && xr::usable(joints[k].pose.orientation) ? joints[k].pose.orientation
                                                                                        : XrQuaternionf{0, 0, 0, 1};
       loc.locationFlags &= ~static_cast<XrSpaceLocationFlags>(XR_SPACE_LOCATION_ORIENTATION_TRACKED_BIT);
+      ++changed;
+    }
+    if ((loc.locationFlags & XR_SPACE_LOCATION_POSITION_VALID_BIT) && !radius_usable(loc.radius)) {
+      const int k = nearest_plausible(bad_radius, j);
+      loc.radius = k >= 0 ? joints[k].radius : (is_tip(j) ? kDefaultTipRadius : kDefaultRadius);
       ++changed;
     }
     if (!velocities) continue;

@@ -45,8 +45,10 @@ RewriteStats rewrite_joints(const Answer& answer, double smoothing, const xr::Ri
 // What the app gets is never garbage, even where the layer passes the runtime through:
 // a garbage position becomes that of the plausible joint fewest bones away (up or down the
 // hand tree, the ancestor on a tie; valid, no longer tracked),
-// an unusable orientation its parent's (likewise), a non-finite or impossible velocity
-// loses its valid bit. Returns the number of joints changed.
+// an unusable orientation its parent's (likewise), a radius that is not positive or a
+// hand's (non-finite, 10 cm or more) where the position is valid that of the joint fewest
+// bones away with a usable one (a default where none has), a non-finite or impossible
+// velocity loses its valid bit. Returns the number of repairs.
 int repair_garbage(const JointMask& garbage, XrHandJointLocationEXT* joints, XrHandJointVelocityEXT* velocities) noexcept;
 
 }  // namespace hs::layer

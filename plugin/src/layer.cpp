@@ -478,7 +478,7 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
     if (repair_garbage(garbage, out->jointLocations, vel ? vel->jointVelocities : nullptr) > 0)
       log_once(g_logged_garbage, LogLevel::Warn,
                "the runtime reported impossible joint data as valid: positions replaced by a neighbour's (not "
-               "tracked), velocities marked invalid");
+               "tracked), radii by a neighbour's, velocities marked invalid");
   } catch (...) {
     t->passthrough = true;
     log_once(g_logged_internal, LogLevel::Error, "internal failure while filtering: this tracker passes through");

@@ -118,6 +118,7 @@ ShimConfig shim_config_from_env() {
       else if (kind == "origin") c.faults.origin = p;
       else if (kind == "space") c.faults.space = p;
       else if (kind == "velocity") c.faults.velocity = p;
+      else if (kind == "radius") c.faults.radius = p;
       else throw std::invalid_argument("HANDSTEADY_SHIM_FAULTS: unknown fault '" + kind + "'");
       if (comma == std::string::npos) break;
       start = comma + 1;

@@ -28,6 +28,7 @@ struct FaultRates {
   double origin = 0.0;  // position becomes the origin or a denormal (flags stay tracked)
   double space = 0.0;   // per xrLocateSpace call: the pose becomes NaN or 1e30 (flags valid)
   double velocity = 0.0;  // per joint: linear velocity becomes 1e6 m/s or NaN (flags valid)
+  double radius = 0.0;    // per joint: radius becomes NaN, 0, negative or 1e30 (position flags valid)
 };
 
 struct ShimConfig {
@@ -45,7 +46,7 @@ struct ShimConfig {
   FrameMode frames = FrameMode::Normal;       // HANDSTEADY_SHIM_FRAMES=normal|headless-zero
   bool head_motion = false;      // HANDSTEADY_SHIM_HEAD_MOTION=1
   bool space_velocity = true;    // HANDSTEADY_SHIM_SPACE_VELOCITY=0: xrLocateSpace answers no XrSpaceVelocity
-  FaultRates faults;             // HANDSTEADY_SHIM_FAULTS=nan:<p>,huge:<p>,quat:<p>,origin:<p>,space:<p>,velocity:<p>
+  FaultRates faults;             // HANDSTEADY_SHIM_FAULTS=nan:<p>,huge:<p>,quat:<p>,origin:<p>,space:<p>,velocity:<p>,radius:<p>
 };
 
 // Throws std::invalid_argument naming the variable on malformed values.

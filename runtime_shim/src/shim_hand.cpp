@@ -84,7 +84,8 @@ double fault_draw(XrTime t, int a, int b, uint64_t salt) {
 
 void inject_joint_faults(const FaultRates& f, XrTime t, int h, XrHandJointLocationEXT* joints,
                          XrHandJointVelocityEXT* velocities) {
-  if (f.nan <= 0.0 && f.huge <= 0.0 && f.quat <= 0.0 && f.origin <= 0.0 && f.velocity <= 0.0) return;
+  if (f.nan <= 0.0 && f.huge <= 0.0 && f.quat <= 0.0 && f.origin <= 0.0 && f.velocity <= 0.0 && f.radius <= 0.0)
+    return;
   for (int j = 0; j < kJointCount; ++j) {
     XrHandJointLocationEXT& loc = joints[j];
     if (fault_draw(t, h, j, 1) < f.nan) loc.pose.position.x = kNaNf;
@@ -92,6 +93,10 @@ void inject_joint_faults(const FaultRates& f, XrTime t, int h, XrHandJointLocati
     if (fault_draw(t, h, j, 3) < f.quat) loc.pose.orientation = {0.f, 0.f, 0.f, 0.f};
     if (fault_draw(t, h, j, 6) < f.origin)
       loc.pose.position = fault_draw(t, h, j, 7) < 0.5 ? XrVector3f{0.f, 0.f, 0.f} : XrVector3f{1e-40f, 0.f, -1e-40f};
+    if (fault_draw(t, h, j, 10) < f.radius) {
+      constexpr float kRadii[4] = {kNaNf, 0.f, -0.01f, 1e30f};
+      loc.radius = kRadii[std::min(3, static_cast<int>(fault_draw(t, h, j, 11) * 4.0))];
+    }
     if (velocities && fault_draw(t, h, j, 8) < f.velocity)
       velocities[j].linearVelocity =
           fault_draw(t, h, j, 9) < 0.5 ? XrVector3f{1e6f, -1e6f, 1e6f} : XrVector3f{kNaNf, 0.f, 0.f};

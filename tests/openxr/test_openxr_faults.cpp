@@ -271,16 +271,16 @@ TEST_CASE("re-acquisition: a hand back 30 cm away, or jumping there, is answered
       });
 }
 
-TEST_CASE("garbage flagged valid (origin, denormal, NaN, 1e30 joints, xrLocateSpace poses, velocities) is gated") {
+TEST_CASE("garbage flagged valid (origin, denormal, NaN, 1e30 joints, xrLocateSpace poses, velocities, radii) is gated") {
   const TrackFiles f = make_tracks("garbage", 4.0);
   auto faults = [] {
-    set_env("HANDSTEADY_SHIM_FAULTS", "origin:0.02,nan:0.01,huge:0.01,space:0.05,velocity:0.05");
+    set_env("HANDSTEADY_SHIM_FAULTS", "origin:0.02,nan:0.01,huge:0.01,space:0.05,velocity:0.05,radius:0.02");
     set_env("HANDSTEADY_SHIM_HEAD_MOTION", "1");
   };
   each_engine_and_mode(f, faults, [&](const std::string& engine, const std::string& mode) {
     App app(true, kRawExt);
     double worst = 0.0, worst_speed = 0.0, sum = 0.0;  // LOCAL errors
-    long n = 0, insane = 0;
+    long n = 0, insane = 0, bad_radius = 0;
     for (int i = 0; i < 360; ++i) {
       const XrTime T = app.frame();
       for (XrHandEXT hand : {XR_HAND_LEFT_EXT, XR_HAND_RIGHT_EXT}) {
@@ -304,6 +304,9 @@ TEST_CASE("garbage flagged valid (origin, denormal, NaN, 1e30 joints, xrLocateSp
               sum += std::min(e, 1.0);
               ++n;
             }
+            // XR_EXT_hand_tracking: a valid position comes with a positive radius.
+            const float r = j.loc[k].radius;
+            if ((j.loc[k].locationFlags & XR_SPACE_LOCATION_POSITION_VALID_BIT) && !(r > 0.0f && r < 0.1f)) ++bad_radius;
             const auto& v = j.vel[k];
             if (v.velocityFlags & XR_SPACE_VELOCITY_LINEAR_VALID_BIT) {
               const double speed = xr::finite(v.linearVelocity) ? xr::to_eigen(v.linearVelocity).norm() : 1e9;
@@ -313,11 +316,13 @@ TEST_CASE("garbage flagged valid (origin, denormal, NaN, 1e30 joints, xrLocateSp
         }
       }
     }
-    MESSAGE(engine << " " << mode << ": " << insane << " of " << n << " joints more than 10 cm off; mean error "
+    MESSAGE(engine << " " << mode << ": " << insane << " of " << n << " joints more than 10 cm off, " << bad_radius
+                   << " radii no hand has; mean error "
                    << sum / static_cast<double>(n) * 1e3 << " mm; fastest velocity answered " << worst_speed << " m/s");
     // Garbage the layer has no estimate for becomes a neighbour's position (not tracked):
     // a few cm off, never metres.
     CHECK(insane == 0);
+    CHECK(bad_radius == 0);
     CHECK(sum / static_cast<double>(n) < 0.006);
     CHECK(worst_speed < 10.0);  // no garbage velocity leaks (the hand moves < 2 m/s)
     app.shutdown();
