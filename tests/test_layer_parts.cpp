@@ -132,6 +132,51 @@ TEST_CASE("tracker filter: first answer is the runtime's (weight 0), blends in, 
   CHECK((out.pose - q).norm() < 1e-9);
 }
 
+TEST_CASE("tracker filter: a world space announced to move restarts at the change, and passes through until then") {
+  for (const Execution exec : {Execution::Inline, Execution::Lockstep}) {
+    CAPTURE(static_cast<int>(exec));
+    auto f = one_euro_filter(exec);
+    Answer out;
+    // A sample, then the answer at its time from the state that includes it (lockstep
+    // answers a sample's own call from the state before it).
+    const auto feed = [&](XrTime t, const Pose& p) {
+      const bool ok = f->update(t, &p, t, out);
+      return exec == Execution::Inline ? ok : f->update(t, nullptr, t, out);
+    };
+    XrTime t = 10'000'000'000;
+    Pose p;
+    for (int i = 0; i <= 30; ++i, t += kPeriod) REQUIRE(feed(t, p = hand_at(0.001 * i)));
+    REQUIRE(out.weight == 1.0);
+    t -= kPeriod;
+    const XrTime change = t + kPeriod / 2;
+    f->space_changed(change);
+    // Before the change nothing is different; asked at the change before a sample from the
+    // new space came, the old space answers nothing.
+    REQUIRE(f->update(t, nullptr, t, out));
+    CHECK(out.weight == 1.0);
+    CHECK_FALSE(f->update(t, nullptr, change, out));
+    // 6 cm over in the new space, a step the engine would otherwise bridge: it restarts,
+    // and the sample's own call (lockstep: answered before the worker restarted) passes through.
+    t += kPeriod;
+    p = hand_at(0.09);
+    if (exec == Execution::Lockstep) CHECK_FALSE(f->update(t, &p, t, out));
+    REQUIRE(feed(t, p));
+    CHECK(out.weight == 0.0);
+    CHECK((out.pose - p).norm() < 1e-9);
+    // Once: the next samples blend in as after any restart.
+    t += kPeriod;
+    REQUIRE(feed(t, p = hand_at(0.091)));
+    CHECK(out.weight > 0.0);
+    CHECK(out.weight < 1.0);
+    // An announcement of no time (0) restarts nothing.
+    f->space_changed(0);
+    t += kPeriod;
+    const double before = out.weight;
+    REQUIRE(feed(t, p = hand_at(0.092)));
+    CHECK(out.weight > before);
+  }
+}
+
 TEST_CASE("tracker filter: answers ahead only as far as the path reaches, older times from the history, and says how it answered") {
   auto f = one_euro_filter(Execution::Inline);
   Answer out;

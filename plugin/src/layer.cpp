@@ -71,7 +71,8 @@ void log_once(std::atomic<bool>& flag, LogLevel level, std::string_view msg) noe
 
 std::atomic<bool> g_logged_internal{false}, g_logged_world_space{false}, g_logged_locate_space{false},
     g_logged_world_locate{false}, g_logged_record{false}, g_logged_engine{false}, g_logged_space_garbage{false},
-    g_logged_latest{false}, g_logged_time{false}, g_logged_repaired{false}, g_logged_garbage{false};
+    g_logged_latest{false}, g_logged_time{false}, g_logged_repaired{false}, g_logged_garbage{false},
+    g_logged_recentre{false};
 
 // ---------------------------------------------------------------- state
 
@@ -87,6 +88,7 @@ struct InstanceData {
   PFN_xrCreateHandTrackerEXT CreateHandTrackerEXT = nullptr;
   PFN_xrDestroyHandTrackerEXT DestroyHandTrackerEXT = nullptr;
   PFN_xrLocateHandJointsEXT LocateHandJointsEXT = nullptr;
+  PFN_xrPollEvent PollEvent = nullptr;
   // The runtime's clock (XR_KHR_convert_timespec_time, enabled by the layer when the
   // runtime has it): dates samples of runtimes that answer their latest pose.
   PFN_xrConvertTimespecTimeToTimeKHR ConvertTimespecTimeToTimeKHR = nullptr;
@@ -504,6 +506,31 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateRawHandJointsNOVENDOR(XrHandTrackerEXT trac
   return inst->LocateHandJointsEXT(tracker, info, out);
 }
 
+// The app's events, untouched. A pending change of LOCAL (a recentring: the layer's world
+// space moves) restarts the session's filters at its change time, so that no run mixes
+// the old space with the new and no answer converts one into the other.
+XRAPI_ATTR XrResult XRAPI_CALL PollEvent(XrInstance instance, XrEventDataBuffer* event) noexcept {
+  const auto inst = find_shared(reg().instances, instance);
+  if (!inst || !inst->PollEvent) return XR_ERROR_HANDLE_INVALID;
+  const XrResult res = inst->PollEvent(instance, event);
+  if (res != XR_SUCCESS || !event || event->type != XR_TYPE_EVENT_DATA_REFERENCE_SPACE_CHANGE_PENDING) return res;
+  const auto& ev = *reinterpret_cast<const XrEventDataReferenceSpaceChangePending*>(event);
+  if (ev.referenceSpaceType != XR_REFERENCE_SPACE_TYPE_LOCAL) return res;
+  try {
+    std::shared_lock lock(reg().mu);
+    for (const auto& [handle, t] : reg().trackers)
+      if (t->session == ev.session)
+        for (const auto& f : t->filters)
+          if (f) f->space_changed(ev.changeTime);
+  } catch (...) {
+    log_once(g_logged_internal, LogLevel::Error, "internal failure handling a recentring: filters go on");
+    return res;
+  }
+  log_once(g_logged_recentre, LogLevel::Info,
+           "the runtime moves LOCAL (recentring): hand filters restart from the runtime's joints at the change");
+  return res;
+}
+
 // ---------------------------------------------------------------- session / instance hooks
 
 XRAPI_ATTR XrResult XRAPI_CALL CreateSession(XrInstance instance, const XrSessionCreateInfo* info,
@@ -601,6 +628,7 @@ XRAPI_ATTR XrResult XRAPI_CALL GetInstanceProcAddr(XrInstance instance, const ch
       if (n == "xrCreateHandTrackerEXT") return ours(&CreateHandTrackerEXT);
       if (n == "xrDestroyHandTrackerEXT") return ours(&DestroyHandTrackerEXT);
       if (n == "xrLocateHandJointsEXT") return ours(&LocateHandJointsEXT);
+      if (n == "xrPollEvent" && inst->PollEvent) return ours(&PollEvent);
     }
   }
   return inst->GetInstanceProcAddr(instance, name, fn);
@@ -663,6 +691,7 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateApiLayerInstance(const XrInstanceCreateInfo
     load(*d, "xrCreateReferenceSpace", d->CreateReferenceSpace);
     load(*d, "xrDestroySpace", d->DestroySpace);
     load(*d, "xrLocateSpace", d->LocateSpace);
+    load(*d, "xrPollEvent", d->PollEvent);
     for (uint32_t i = 0; i < info->enabledExtensionCount; ++i)
       if (std::string_view(info->enabledExtensionNames[i]) == XR_EXT_HAND_TRACKING_EXTENSION_NAME) d->hand_tracking = true;
     d->raw_joints = raw_joints && d->hand_tracking;

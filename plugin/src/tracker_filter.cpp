@@ -177,6 +177,7 @@ void TrackerFilter::process(const Sample& s) noexcept {
   // Beyond a quarter of XrTime's range no runtime dates a sample (year 2082 on a Unix
   // clock); refusing such times keeps the path's knot times from overflowing.
   if (s.t <= 0 || s.t > std::numeric_limits<XrTime>::max() / 4) return;
+  const XrTime change = space_change_.load(std::memory_order_acquire);
   if (!running_) {
     restart(s.t, false);
   } else {
@@ -188,9 +189,11 @@ void TrackerFilter::process(const Sample& s) noexcept {
       if (static_cast<double>(-dt) <= reset_gap_ns_ || ++behind_ < 3) return;
       restart(s.t, false);
     } else if (static_cast<double>(dt) > reset_gap_ns_ ||
-               hand_jumped(centre_, gate.centre, static_cast<double>(dt) * 1e-9, limits_)) {
-      // Lost for too long, or somewhere no hand could have moved to: the motion starts
-      // over, what the engine learnt of the hand's shape is kept (and checked).
+               hand_jumped(centre_, gate.centre, static_cast<double>(dt) * 1e-9, limits_) ||
+               (change > 0 && s.t >= change && start_ < change)) {
+      // Lost for too long, somewhere no hand could have moved to, or the world space moved
+      // under the run (a recentred LOCAL): the motion starts over, what the engine learnt
+      // of the hand's shape is kept (and checked).
       restart(s.t, true);
     }
   }
@@ -279,6 +282,9 @@ bool TrackerFilter::answer(XrTime q, const Sample* pending, Answer& out) const n
   const Published& p = *front_;
   out.corrected = false;
   if (!p.valid || q <= 0) return false;
+  // The published run is in the world space as it was before a change that applies at q.
+  const XrTime change = space_change_.load(std::memory_order_acquire);
+  if (change > 0 && q >= change && p.start < change) return false;
   if (q >= p.t0) {
     if (!p.path_at(q, max_ahead_ns_, out.pose)) return false;
     out.how = q == p.t0 ? TimeAnswer::Exact : TimeAnswer::Predicted;

@@ -83,6 +83,12 @@ class TrackerFilter {
   // the published path reaches.
   bool update(XrTime sample_time, const Pose* observed, XrTime query_time, Answer& out) noexcept;
 
+  // The runtime moves the layer's world space (LOCAL recentred, XrEventDataReferenceSpaceChangePending)
+  // at change_time: the first sample from then on restarts the engine (the same hand, in
+  // the new space), and until it has, queries from then on pass the runtime through
+  // rather than answer from the old space. Any thread; the newest announcement counts.
+  void space_changed(XrTime change_time) noexcept { space_change_.store(change_time, std::memory_order_release); }
+
   static constexpr XrTime kMinStep = 1'000'000;        // 1 ms: closer samples are repeats
   static constexpr int kHistory = 32;                  // past estimates kept for older queries
   static constexpr int kQueue = 8;                     // samples waiting for the worker
@@ -165,6 +171,8 @@ class TrackerFilter {
   // Published (engine -> any app thread).
   mutable std::mutex pub_mu_;
   std::unique_ptr<Published> front_;
+
+  std::atomic<XrTime> space_change_{0};  // the world space's newest announced change (0: none)
 
   std::thread worker_;
 };

@@ -1,8 +1,11 @@
 #include "shim_config.hpp"
 
+#include <cmath>
 #include <cstdlib>
+#include <numbers>
 #include <stdexcept>
 #include <string_view>
+#include <vector>
 
 namespace hs::shim {
 namespace {
@@ -102,6 +105,25 @@ ShimConfig shim_config_from_env() {
     c.space_velocity = s == "1";
   }
 
+  if (std::string s = env("HANDSTEADY_SHIM_RECENTER"); !s.empty()) {
+    std::vector<double> v;
+    size_t start = 0;
+    for (;;) {
+      const size_t comma = s.find(',', start);
+      v.push_back(parse_number(s.substr(start, comma == std::string::npos ? std::string::npos : comma - start),
+                               "HANDSTEADY_SHIM_RECENTER"));
+      if (comma == std::string::npos) break;
+      start = comma + 1;
+    }
+    if (v.size() != 5 || !std::isfinite(v[0] + v[1] + v[2] + v[3] + v[4]))
+      throw std::invalid_argument("HANDSTEADY_SHIM_RECENTER: expected <track_s>,<dx_m>,<dy_m>,<dz_m>,<yaw_deg>, got '" +
+                                  s + "'");
+    Recenter rc;
+    rc.at_s = v[0];
+    rc.offset_m = Eigen::Vector3d(v[1], v[2], v[3]);
+    rc.yaw_rad = v[4] * std::numbers::pi / 180.0;
+    c.recenter = rc;
+  }
   if (std::string s = env("HANDSTEADY_SHIM_FAULTS"); !s.empty()) {
     size_t start = 0;
     while (start <= s.size()) {

@@ -1,6 +1,8 @@
 #pragma once
 // Environment configuration of the replay runtime (read at each xrCreateInstance).
 // See docs/OPENXR_LAYER.md "Replay runtime" for the variables and their meaning.
+#include <Eigen/Core>
+
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -31,6 +33,15 @@ struct FaultRates {
   double radius = 0.0;    // per joint: radius becomes NaN, 0, negative or 1e30 (position flags valid)
 };
 
+// LOCAL recentred once (as a user's "reset view" does): from track time at_s on, LOCAL's
+// origin sits at offset_m in the old LOCAL, turned yaw_rad about +Y; the runtime announces
+// it with XrEventDataReferenceSpaceChangePending 0.1 s before. STAGE and the hands stay put.
+struct Recenter {
+  double at_s = 0.0;
+  Eigen::Vector3d offset_m = Eigen::Vector3d::Zero();
+  double yaw_rad = 0.0;
+};
+
 struct ShimConfig {
   std::string track_path;        // HANDSTEADY_SHIM_TRACK (empty: hands never active)
   std::string corrupt_preset;    // HANDSTEADY_SHIM_CORRUPT=<preset>:<seed>
@@ -46,6 +57,7 @@ struct ShimConfig {
   FrameMode frames = FrameMode::Normal;       // HANDSTEADY_SHIM_FRAMES=normal|headless-zero
   bool head_motion = false;      // HANDSTEADY_SHIM_HEAD_MOTION=1
   bool space_velocity = true;    // HANDSTEADY_SHIM_SPACE_VELOCITY=0: xrLocateSpace answers no XrSpaceVelocity
+  std::optional<Recenter> recenter;  // HANDSTEADY_SHIM_RECENTER=<track_s>,<dx_m>,<dy_m>,<dz_m>,<yaw_deg>
   FaultRates faults;             // HANDSTEADY_SHIM_FAULTS=nan:<p>,huge:<p>,quat:<p>,origin:<p>,space:<p>,velocity:<p>,radius:<p>
 };
 

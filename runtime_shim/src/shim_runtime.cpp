@@ -73,6 +73,7 @@ struct Runtime {
   std::map<uint64_t, SpaceData> spaces;
   std::map<uint64_t, TrackerData> trackers;
   std::deque<XrEventDataBuffer> events;
+  bool recenter_announced = false;
 };
 Runtime& rt() {
   static Runtime r;
@@ -123,8 +124,33 @@ Rigid reference_in_world(const Runtime& r, XrReferenceSpaceType type, double t) 
       return yaw_pitch(0.35 * std::sin(tau * 0.25 * t), 0.15 * std::sin(tau * 0.35 * t),
                        Eigen::Vector3d(0.08 * std::sin(tau * 0.4 * t), 0.03 * std::sin(tau * 0.7 * t),
                                        0.05 * std::sin(tau * 0.3 * t)));
+    case XR_REFERENCE_SPACE_TYPE_LOCAL:
+      if (r.cfg.recenter && t >= r.cfg.recenter->at_s)
+        return yaw_pitch(r.cfg.recenter->yaw_rad, 0.0, r.cfg.recenter->offset_m);
+      return Rigid::Identity();
     default:
       return Rigid::Identity();
+  }
+}
+
+// The recentring's announcement, once, 0.1 s ahead of it, to every running session.
+void announce_recenter(Runtime& r, XrTime now) {
+  if (!r.cfg.recenter || r.recenter_announced) return;
+  const Recenter& rc = *r.cfg.recenter;
+  if (track_time(r, now) < rc.at_s - 0.1) return;
+  r.recenter_announced = true;
+  for (const auto& [id, s] : r.sessions) {
+    if (!s.running) continue;
+    XrEventDataBuffer buf{};
+    auto* ev = reinterpret_cast<XrEventDataReferenceSpaceChangePending*>(&buf);
+    ev->type = XR_TYPE_EVENT_DATA_REFERENCE_SPACE_CHANGE_PENDING;
+    ev->next = nullptr;
+    ev->session = handle_of<XrSession>(id);
+    ev->referenceSpaceType = XR_REFERENCE_SPACE_TYPE_LOCAL;
+    ev->changeTime = r.clock.epoch + static_cast<XrTime>(std::llround((rc.at_s - r.clock.t0) * 1e9));
+    ev->poseValid = XR_TRUE;
+    ev->poseInPreviousSpace = xr::to_xr(yaw_pitch(rc.yaw_rad, 0.0, rc.offset_m));
+    r.events.push_back(buf);
   }
 }
 
@@ -237,6 +263,7 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateInstance(const XrInstanceCreateInfo* info, 
   r.spaces.clear();
   r.trackers.clear();
   r.events.clear();
+  r.recenter_announced = false;
   r.instance = handle_of<XrInstance>(r.next_handle++);
   r.live = true;
   *instance = r.instance;
@@ -466,6 +493,7 @@ XRAPI_ATTR XrResult XRAPI_CALL WaitFrame(XrSession session, const XrFrameWaitInf
     // xrEndFrame fail with XR_ERROR_CALL_ORDER_INVALID. The app times itself
     // (xrConvertTimespecTimeToTimeKHR). The simulated clock still runs.
     if (!r.cfg.real_clock) r.sim_now += r.cfg.period_ns;
+    announce_recenter(r, now_locked(r));
     state->predictedDisplayTime = 0;
     state->predictedDisplayPeriod = 0;
     state->shouldRender = XR_FALSE;
@@ -490,6 +518,7 @@ XRAPI_ATTR XrResult XRAPI_CALL WaitFrame(XrSession session, const XrFrameWaitInf
     r.mono_at_tick = monotonic_ns();
     now = r.sim_now;
   }
+  announce_recenter(r, now);
   s->frame_waited = true;
   state->predictedDisplayTime = now + r.cfg.latency_ns;
   state->predictedDisplayPeriod = r.cfg.period_ns;

@@ -329,6 +329,58 @@ TEST_CASE("garbage flagged valid (origin, denormal, NaN, 1e30 joints, xrLocateSp
   });
 }
 
+TEST_CASE("a recentred LOCAL (reference space change pending): answers in STAGE show no transient") {
+  // At 2 s the runtime moves LOCAL (the layer's world space) by 6 cm and 8 degrees, as a
+  // user's "reset view" does: the hand seems to jump 7-9 cm in LOCAL, a step the engine
+  // would bridge as motion. STAGE and the hands stay where they are, so the app's answers
+  // in STAGE must not move; the runtime announces the change 0.1 s ahead.
+  const TrackFiles f = make_tracks("recenter", 4.0);
+  constexpr double kAt = 2.0;
+  each_engine_and_mode(
+      f, [&] { set_env("HANDSTEADY_SHIM_RECENTER", std::to_string(f.t0 + kAt) + ",0.05,0.0,-0.03,8"); },
+      [&](const std::string& engine, const std::string& mode) {
+        App app(true, kRawExt);
+        int announced = 0;
+        xr::Rigid world_from_stage = xr::Rigid::Identity();
+        // Per frame and hand, the mean joint error in STAGE: the layer's and the runtime's.
+        double worst_after = 0.0, worst_raw_after = 0.0, settled = 0.0, settled_raw = 0.0;
+        long n_settled = 0;
+        for (int i = 0; i < 350; ++i) {
+          const XrTime T = app.frame();
+          for (const XrEventDataBuffer& ev : app.poll_events())
+            if (ev.type == XR_TYPE_EVENT_DATA_REFERENCE_SPACE_CHANGE_PENDING) ++announced;
+          if (i == 0) world_from_stage = xr::to_rigid(app.space_pose(app.stage, app.local, T));
+          const double t = track_time(f, T) - f.t0;
+          for (XrHandEXT hand : {XR_HAND_LEFT_EXT, XR_HAND_RIGHT_EXT}) {
+            const Joints j = app.locate(hand, app.stage, T), r = app.locate_raw(hand, app.stage, T);
+            REQUIRE(j.active);
+            const Pose truth = interpolate_pose(f.clean_series[hand - 1], track_time(f, T));
+            const XrPosef from_stage = xr::to_xr(world_from_stage);
+            double sum = 0.0, sum_raw = 0.0;
+            long n = 0, n_raw = 0;
+            accumulate_error(j, from_stage, truth, sum, n);
+            accumulate_error(r, from_stage, truth, sum_raw, n_raw);
+            const double e = sum / static_cast<double>(std::max(n, 1L)), e_raw = sum_raw / static_cast<double>(std::max(n_raw, 1L));
+            if (t >= kAt - 0.2 && t < kAt + 0.5) {
+              worst_after = std::max(worst_after, e);
+              worst_raw_after = std::max(worst_raw_after, e_raw);
+            } else if (t >= kAt + 0.8) {
+              settled += e;
+              settled_raw += e_raw;
+              ++n_settled;
+            }
+          }
+        }
+        MESSAGE(engine << " " << mode << ": around the recentring the worst frame is " << worst_after * 1e3
+                       << " mm off (runtime " << worst_raw_after * 1e3 << " mm); later " << settled / static_cast<double>(n_settled) * 1e3
+                       << " mm (runtime " << settled_raw / static_cast<double>(n_settled) * 1e3 << " mm)");
+        CHECK(announced == 1);
+        CHECK(worst_after < 1.25 * worst_raw_after);  // no transient beyond the runtime's own error
+        if (mode == "denoise") CHECK(settled < 0.9 * settled_raw);  // and it filters again
+        app.shutdown();
+      });
+}
+
 TEST_CASE("time chaos (far future, zero, INT64_MAX, backwards, repeats) leaves the filter working") {
   const TrackFiles f = make_tracks("chaos", 4.0);
   // A runtime that answers any future time (with its newest pose), as real ones do: the

@@ -173,6 +173,18 @@ void App::poll_until(XrSessionState state) {
   FAIL("session never reached state " << state);
 }
 
+std::vector<XrEventDataBuffer> App::poll_events() {
+  std::vector<XrEventDataBuffer> out;
+  for (;;) {
+    XrEventDataBuffer ev{};
+    ev.type = XR_TYPE_EVENT_DATA_BUFFER;
+    const XrResult r = xrPollEvent(instance, &ev);
+    REQUIRE(XR_SUCCEEDED(r));
+    if (r == XR_EVENT_UNAVAILABLE) return out;
+    out.push_back(ev);
+  }
+}
+
 XrTime App::frame() {
   XrFrameWaitInfo wi{};
   wi.type = XR_TYPE_FRAME_WAIT_INFO;

@@ -63,6 +63,8 @@ class App {
 
   // xrWaitFrame/xrBeginFrame/xrEndFrame; returns the predicted display time.
   XrTime frame();
+  // Drains the event queue (as an app does once a frame); returns the events.
+  std::vector<XrEventDataBuffer> poll_events();
   Joints locate(XrHandEXT hand, XrSpace base, XrTime time, bool velocities = false, uint32_t joint_count = 26) const;
   // The runtime's own answer through the layer's raw side channel (the App must have been
   // created with XR_NOVENDOR_handsteady_raw_joints).
