@@ -63,6 +63,34 @@ TEST_CASE("gate: origin, denormal, NaN, 1e30 and stray joints are marked missing
   CHECK_FALSE(any_joint_tracked(few));
 }
 
+TEST_CASE("gate: a hand collapsed onto a point or a line is no hand; small, flat and partial hands are") {
+  const Pose hand = hand_at(0.0);
+  const Eigen::RowVector3d palm = hand.row(0);
+  Pose point = hand, line = hand, small = hand, flat = hand, finger = untracked_pose();
+  for (int j = 0; j < kJointCount; ++j) {
+    point.row(j) = palm + Eigen::RowVector3d::Constant(1e-4 * j);  // within a few mm: a runtime's collapsed hand
+    line.row(j) = palm + Eigen::RowVector3d(0.005 * j, 0.0, 0.0);  // spread 13 cm, but on a line
+    small.row(j) = palm + 0.5 * (hand.row(j) - palm);              // half a hand's size
+    flat(j, 2) = palm(2);                                           // every joint in one plane
+  }
+  Pose a = point, b = line;
+  CHECK_FALSE(gate_joints(a).usable());
+  CHECK_FALSE(any_joint_tracked(a));
+  const GateResult gl = gate_joints(b);
+  CHECK_FALSE(gl.usable());
+  CHECK(gl.rejected == kJointCount);
+  CHECK(gate_joints(small).usable());
+  CHECK(gate_joints(flat).usable());
+  // Too few joints to judge the shape (one finger on a line): judged joint by joint.
+  for (int j = 0; j < 19; ++j) finger.row(j) = line.row(j);
+  CHECK(gate_joints(finger).usable());
+  // Off (the layer's per-joint garbage marks use it so): every joint kept.
+  GateLimits off;
+  off.min_spread_m = 0.0;
+  Pose c = line;
+  CHECK(gate_joints(c, off).kept == kJointCount);
+}
+
 TEST_CASE("gate: a hand moving faster than any hand, or back from a loss elsewhere, jumped") {
   const Eigen::Vector3d a(0.0, 0.0, -0.4);
   CHECK_FALSE(hand_jumped(a, a + Eigen::Vector3d(0.02, 0, 0), 0.011));  // 1.8 m/s

@@ -1,5 +1,7 @@
 #include "joint_gate.hpp"
 
+#include <Eigen/Eigenvalues>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -38,7 +40,24 @@ GateResult gate_joints(Pose& pose, const GateLimits& limits) noexcept {
         ++r.rejected;
       }
   }
-  if (n < limits.min_joints) {
+  bool collapsed = false;
+  if (n >= limits.min_joints && limits.min_spread_m > 0.0 && n >= limits.spread_joints) {
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+    for (int j = 0; j < kJointCount; ++j)
+      if (ok[j]) mean += pose.row(j).transpose();
+    mean /= static_cast<double>(n);
+    Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+    for (int j = 0; j < kJointCount; ++j)
+      if (ok[j]) {
+        const Eigen::Vector3d d = pose.row(j).transpose() - mean;
+        cov += d * d.transpose();
+      }
+    cov /= static_cast<double>(n);
+    // Ascending eigenvalues: [1] is the variance along the second principal axis.
+    const Eigen::Vector3d ev = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(cov, Eigen::EigenvaluesOnly).eigenvalues();
+    collapsed = !(ev[1] >= limits.min_spread_m * limits.min_spread_m);
+  }
+  if (n < limits.min_joints || collapsed) {
     r.rejected += n;
     n = 0;
     ok.fill(false);

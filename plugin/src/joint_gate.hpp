@@ -1,6 +1,7 @@
 #pragma once
 // Physically plausible input only. Runtimes send garbage flagged valid and tracked:
-// joints at or near the origin, denormals, 1e30, NaN, a single joint far from its hand.
+// joints at or near the origin, denormals, 1e30, NaN, a single joint far from its hand, a
+// whole hand collapsed onto a point or a line.
 // Such joints are gated like outliers (marked missing), never fed to the filter; a hand
 // that moves in a way no hand can (or comes back somewhere else after a loss) restarts
 // the filter instead of being bridged. Pure functions: no state, no allocation.
@@ -15,6 +16,11 @@ struct GateLimits {
   double max_norm_m = 100.0;        // farther from the origin: not a hand within tracking range
   double max_from_centre_m = 0.25;  // a joint this far from its hand's median joint is not part of it
   int min_joints = 6;               // fewer plausible joints: no usable observation
+  // A hand of at least spread_joints plausible joints spread less than min_spread_m (RMS)
+  // along its second principal axis lies on a point or a line: no hand of any proportions
+  // does (its knuckles alone span centimetres), a runtime's collapsed hand does. 0: off.
+  double min_spread_m = 0.003;
+  int spread_joints = 20;
   double max_speed_m_s = 15.0;      // the hand's centre faster than this between samples: a jump
   double jump_slack_m = 0.05;       // ... beyond this distance (tracker noise at tiny time steps)
   double lost_s = 0.12;             // a sample gap longer than this is a loss (20 Hz runtimes: 0.05) ...

@@ -28,6 +28,7 @@ Eigen::Vector3d median_centre(const Pose& p) {
   loose.max_norm_m = 1e3;
   loose.max_from_centre_m = 1e3;
   loose.min_joints = 1;
+  loose.min_spread_m = 0.0;
   return gate_joints(copy, loose).centre;
 }
 // The plausible joint fewest bones from j, up or down the hand tree (a finger whose base
@@ -59,7 +60,7 @@ JointMask garbage_joints(const XrHandJointLocationEXT* joints) noexcept {
   limits.min_norm_m = 1e-9;
   limits.max_norm_m = 1e3;
   limits.min_joints = 1;
-  gate_joints(p, limits);
+  gate_joints(p, limits);  // a hand collapsed onto a point or a line: every joint
   JointMask bad{};
   for (int j = 0; j < kJointCount; ++j) bad[j] = !joint_tracked(p, j);
   return bad;
@@ -76,9 +77,15 @@ int repair_garbage(const JointMask& garbage, XrHandJointLocationEXT* joints, XrH
     XrHandJointLocationEXT& loc = joints[j];
     if (garbage[j]) {
       const int k = nearest_plausible(garbage, j);
-      if (k >= 0) loc.pose.position = joints[k].pose.position;
-      else loc.pose.position = {0.0f, 0.0f, 0.0f};  // no plausible joint at all: a defined value
-      loc.locationFlags &= ~static_cast<XrSpaceLocationFlags>(XR_SPACE_LOCATION_POSITION_TRACKED_BIT);
+      if (k >= 0) {
+        loc.pose.position = joints[k].pose.position;
+        loc.locationFlags &= ~static_cast<XrSpaceLocationFlags>(XR_SPACE_LOCATION_POSITION_TRACKED_BIT);
+      } else {
+        // No plausible joint at all (a collapsed hand, every joint garbage): no valid position.
+        if (!xr::finite(loc.pose.position)) loc.pose.position = {0.0f, 0.0f, 0.0f};  // a defined value
+        loc.locationFlags &= ~static_cast<XrSpaceLocationFlags>(XR_SPACE_LOCATION_POSITION_TRACKED_BIT |
+                                                                 XR_SPACE_LOCATION_POSITION_VALID_BIT);
+      }
       ++changed;
     }
     if (!xr::usable(loc.pose.orientation)) {

@@ -29,7 +29,8 @@ struct RewriteStats {
 };
 
 // Joints of the runtime's answer whose position no hand can have (non-finite, at the
-// exact origin or denormal, beyond 1 km, far from the rest of the hand), flagged tracked.
+// exact origin or denormal, beyond 1 km, far from the rest of the hand; all of a hand
+// collapsed onto a point or a line), flagged tracked.
 using JointMask = std::array<bool, kJointCount>;
 JointMask garbage_joints(const XrHandJointLocationEXT* joints) noexcept;
 
@@ -44,7 +45,9 @@ RewriteStats rewrite_joints(const Answer& answer, double smoothing, const xr::Ri
 
 // What the app gets is never garbage, even where the layer passes the runtime through:
 // a garbage position becomes that of the plausible joint fewest bones away (up or down the
-// hand tree, the ancestor on a tie; valid, no longer tracked),
+// hand tree, the ancestor on a tie; valid, no longer tracked; with none plausible, as
+// in a hand collapsed onto a point, the position is no longer valid: it stays where it is
+// if finite, else becomes the origin),
 // an unusable orientation its parent's (likewise), a radius that is not positive or a
 // hand's (non-finite, 10 cm or more) where the position is valid that of the joint fewest
 // bones away with a usable one (a default where none has), a non-finite or impossible

@@ -141,6 +141,7 @@ ShimConfig shim_config_from_env() {
       else if (kind == "space") c.faults.space = p;
       else if (kind == "velocity") c.faults.velocity = p;
       else if (kind == "radius") c.faults.radius = p;
+      else if (kind == "collapse") c.faults.collapse = p;
       else throw std::invalid_argument("HANDSTEADY_SHIM_FAULTS: unknown fault '" + kind + "'");
       if (comma == std::string::npos) break;
       start = comma + 1;

@@ -31,6 +31,7 @@ struct FaultRates {
   double space = 0.0;   // per xrLocateSpace call: the pose becomes NaN or 1e30 (flags valid)
   double velocity = 0.0;  // per joint: linear velocity becomes 1e6 m/s or NaN (flags valid)
   double radius = 0.0;    // per joint: radius becomes NaN, 0, negative or 1e30 (position flags valid)
+  double collapse = 0.0;  // per hand and answered time: every joint at the palm's position (flags valid)
 };
 
 // LOCAL recentred once (as a user's "reset view" does): from track time at_s on, LOCAL's
@@ -58,7 +59,7 @@ struct ShimConfig {
   bool head_motion = false;      // HANDSTEADY_SHIM_HEAD_MOTION=1
   bool space_velocity = true;    // HANDSTEADY_SHIM_SPACE_VELOCITY=0: xrLocateSpace answers no XrSpaceVelocity
   std::optional<Recenter> recenter;  // HANDSTEADY_SHIM_RECENTER=<track_s>,<dx_m>,<dy_m>,<dz_m>,<yaw_deg>
-  FaultRates faults;             // HANDSTEADY_SHIM_FAULTS=nan:<p>,huge:<p>,quat:<p>,origin:<p>,space:<p>,velocity:<p>,radius:<p>
+  FaultRates faults;             // HANDSTEADY_SHIM_FAULTS=nan:<p>,huge:<p>,quat:<p>,origin:<p>,space:<p>,velocity:<p>,radius:<p>,collapse:<p>
 };
 
 // Throws std::invalid_argument naming the variable on malformed values.

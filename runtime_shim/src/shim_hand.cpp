@@ -84,8 +84,11 @@ double fault_draw(XrTime t, int a, int b, uint64_t salt) {
 
 void inject_joint_faults(const FaultRates& f, XrTime t, int h, XrHandJointLocationEXT* joints,
                          XrHandJointVelocityEXT* velocities) {
-  if (f.nan <= 0.0 && f.huge <= 0.0 && f.quat <= 0.0 && f.origin <= 0.0 && f.velocity <= 0.0 && f.radius <= 0.0)
+  if (f.nan <= 0.0 && f.huge <= 0.0 && f.quat <= 0.0 && f.origin <= 0.0 && f.velocity <= 0.0 && f.radius <= 0.0 &&
+      f.collapse <= 0.0)
     return;
+  if (fault_draw(t, h, 0, 12) < f.collapse)
+    for (int j = 1; j < kJointCount; ++j) joints[j].pose.position = joints[0].pose.position;
   for (int j = 0; j < kJointCount; ++j) {
     XrHandJointLocationEXT& loc = joints[j];
     if (fault_draw(t, h, j, 1) < f.nan) loc.pose.position.x = kNaNf;
