@@ -63,7 +63,7 @@ TEST_CASE("gate: origin, denormal, NaN, 1e30 and stray joints are marked missing
   CHECK_FALSE(any_joint_tracked(few));
 }
 
-TEST_CASE("gate: a hand collapsed onto a point or a line is no hand; small, flat and partial hands are") {
+TEST_CASE("gate: a hand collapsed onto a point or a line is no hand, but small, flat and partial hands are") {
   const Pose hand = hand_at(0.0);
   const Eigen::RowVector3d palm = hand.row(0);
   Pose point = hand, line = hand, small = hand, flat = hand, finger = untracked_pose();
