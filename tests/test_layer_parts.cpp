@@ -435,7 +435,7 @@ TEST_CASE("repair: a garbage joint takes the plausible joint fewest bones away, 
   CHECK((at(inter) - truth(inter)).norm() < 0.04);
 }
 
-TEST_CASE("repair: a radius no hand has, where the position is valid, becomes a neighbour's") {
+TEST_CASE("repair: a radius no hand has, where the position is valid, becomes a neighbour's, 0 stays") {
   std::array<XrHandJointLocationEXT, kJointCount> joints{};
   const Pose raw = hand_at(0.0);
   for (int j = 0; j < kJointCount; ++j) {
@@ -450,17 +450,20 @@ TEST_CASE("repair: a radius no hand has, where the position is valid, becomes a 
             tip = XR_HAND_JOINT_INDEX_TIP_EXT, ring = XR_HAND_JOINT_RING_PROXIMAL_EXT,
             little = XR_HAND_JOINT_LITTLE_PROXIMAL_EXT, thumb = XR_HAND_JOINT_THUMB_TIP_EXT;
   joints[inter].radius = nan;
-  joints[distal].radius = 0.0f;
+  joints[distal].radius = -1e-4f;
   joints[tip].radius = -0.01f;
   joints[ring].radius = 1e30f;
   joints[little].radius = std::numeric_limits<float>::infinity();
   // Not valid: its radius is undefined, neither repaired nor taken.
   joints[thumb].locationFlags = 0;
   joints[thumb].radius = 0.5f;
+  const int middle = XR_HAND_JOINT_MIDDLE_DISTAL_EXT;
+  joints[middle].radius = 0.0f;  // a runtime that gives no radius: not invented
   const JointMask none{};
   CHECK(repair_garbage(none, joints.data(), nullptr) == 5);
+  CHECK(joints[middle].radius == 0.0f);
   for (int j = 0; j < kJointCount; ++j) {
-    if (j == thumb) continue;
+    if (j == thumb || j == middle) continue;
     CHECK(joints[j].radius > 0.0f);
     CHECK(joints[j].radius < 0.1f);
   }

@@ -11,14 +11,16 @@ namespace {
 constexpr XrSpaceLocationFlags kTracked = XR_SPACE_LOCATION_POSITION_VALID_BIT | XR_SPACE_LOCATION_POSITION_TRACKED_BIT;
 constexpr double kMaxSpeed = 50.0;         // m/s: no joint of a hand moves faster
 constexpr double kMaxAngularSpeed = 1000.0;  // rad/s: beyond noisy joint frames (tracker jitter over 2 cm bones)
-// A joint's radius must be positive where its position is valid (XR_EXT_hand_tracking);
-// no joint of a human hand is 10 cm thick. Fallbacks where no joint's radius is usable:
+// A joint's radius where its position is valid: no joint of a human hand is 10 cm thick,
+// and a NaN or negative one breaks what an app computes with it. 0 (against
+// XR_EXT_hand_tracking, which asks for a positive radius) is a runtime that gives none:
+// kept, not replaced by an invented one. Fallbacks where no joint's radius is usable:
 // about a finger's half-thickness, a little less at the tips.
 constexpr float kMaxRadius = 0.1f;
 constexpr float kDefaultRadius = 0.01f;
 constexpr float kDefaultTipRadius = 0.008f;
 
-bool radius_usable(float r) noexcept { return r > 0.0f && r < kMaxRadius; }  // false for NaN too
+bool radius_usable(float r) noexcept { return r >= 0.0f && r < kMaxRadius; }  // false for NaN too
 
 // Component-wise median of the usable rows of `p` (NaN when none).
 Eigen::Vector3d median_centre(const Pose& p) {

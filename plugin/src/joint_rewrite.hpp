@@ -48,10 +48,10 @@ RewriteStats rewrite_joints(const Answer& answer, double smoothing, const xr::Ri
 // hand tree, the ancestor on a tie; valid, no longer tracked; with none plausible, as
 // in a hand collapsed onto a point, the position is no longer valid: it stays where it is
 // if finite, else becomes the origin),
-// an unusable orientation its parent's (likewise), a radius that is not positive or a
-// hand's (non-finite, 10 cm or more) where the position is valid that of the joint fewest
-// bones away with a usable one (a default where none has), a non-finite or impossible
-// velocity loses its valid bit. Returns the number of repairs.
+// an unusable orientation its parent's (likewise), a radius no hand has (non-finite,
+// negative, 10 cm or more) where the position is valid that of the joint fewest bones
+// away with a usable one (a default where none has; 0, a runtime giving none, is kept),
+// a non-finite or impossible velocity loses its valid bit. Returns the number of repairs.
 int repair_garbage(const JointMask& garbage, XrHandJointLocationEXT* joints, XrHandJointVelocityEXT* velocities) noexcept;
 
 }  // namespace hs::layer

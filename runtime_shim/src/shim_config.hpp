@@ -30,7 +30,7 @@ struct FaultRates {
   double origin = 0.0;  // position becomes the origin or a denormal (flags stay tracked)
   double space = 0.0;   // per xrLocateSpace call: the pose becomes NaN or 1e30 (flags valid)
   double velocity = 0.0;  // per joint: linear velocity becomes 1e6 m/s or NaN (flags valid)
-  double radius = 0.0;    // per joint: radius becomes NaN, 0, negative or 1e30 (position flags valid)
+  double radius = 0.0;    // per joint: radius becomes NaN, infinite, negative or 1e30 (position flags valid)
   double collapse = 0.0;  // per hand and answered time: every joint at the palm's position (flags valid)
 };
 

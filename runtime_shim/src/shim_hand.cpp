@@ -97,7 +97,7 @@ void inject_joint_faults(const FaultRates& f, XrTime t, int h, XrHandJointLocati
     if (fault_draw(t, h, j, 6) < f.origin)
       loc.pose.position = fault_draw(t, h, j, 7) < 0.5 ? XrVector3f{0.f, 0.f, 0.f} : XrVector3f{1e-40f, 0.f, -1e-40f};
     if (fault_draw(t, h, j, 10) < f.radius) {
-      constexpr float kRadii[4] = {kNaNf, 0.f, -0.01f, 1e30f};
+      constexpr float kRadii[4] = {kNaNf, std::numeric_limits<float>::infinity(), -0.01f, 1e30f};
       loc.radius = kRadii[std::min(3, static_cast<int>(fault_draw(t, h, j, 11) * 4.0))];
     }
     if (velocities && fault_draw(t, h, j, 8) < f.velocity)

@@ -322,7 +322,7 @@ TEST_CASE("garbage flagged valid (origin, denormal, NaN, 1e30 joints, collapsed 
               sum += std::min(e, 1.0);
               ++n;
             }
-            // XR_EXT_hand_tracking: a valid position comes with a positive radius.
+            // A valid position comes with a radius a hand can have (the replay runtime's are positive).
             const float r = j.loc[k].radius;
             if ((j.loc[k].locationFlags & XR_SPACE_LOCATION_POSITION_VALID_BIT) && !(r > 0.0f && r < 0.1f)) ++bad_radius;
             const auto& v = j.vel[k];
