@@ -154,6 +154,22 @@ auto find_shared(Map& map, Key key) -> typename Map::mapped_type {
   return it == map.end() ? nullptr : it->second;
 }
 
+// The instance of a hand tracker or session the registry does not hold (its state could
+// not be made: it passes through): the loader allows one live instance per process, the
+// one with hand tracking. nullptr when there is none.
+// The functions the layer's hand hooks call down to (hooked only when all are there).
+bool has_hand_functions(const InstanceData& d) noexcept {
+  return d.hand_tracking && d.CreateHandTrackerEXT && d.DestroyHandTrackerEXT && d.LocateHandJointsEXT &&
+         d.CreateSession && d.DestroySession;
+}
+
+std::shared_ptr<const InstanceData> hand_instance() noexcept {
+  std::shared_lock lock(reg().mu);
+  for (const auto& [handle, d] : reg().instances)
+    if (has_hand_functions(*d)) return d;
+  return nullptr;
+}
+
 // ---------------------------------------------------------------- recording
 
 void write_recording(const TrackerData& t) noexcept {
@@ -191,7 +207,10 @@ void append_row(HandSeries& s, XrTime t, const Pose& p) {
 XRAPI_ATTR XrResult XRAPI_CALL CreateHandTrackerEXT(XrSession session, const XrHandTrackerCreateInfoEXT* info,
                                                     XrHandTrackerEXT* tracker) noexcept {
   const auto inst = find_shared(reg().sessions, session);
-  if (!inst || !inst->CreateHandTrackerEXT) return XR_ERROR_HANDLE_INVALID;
+  if (!inst) {
+    const auto any = hand_instance();  // a session unknown here: its trackers pass through
+    return any ? any->CreateHandTrackerEXT(session, info, tracker) : XR_ERROR_HANDLE_INVALID;
+  }
   const XrResult res = inst->CreateHandTrackerEXT(session, info, tracker);
   if (XR_FAILED(res)) return res;
   try {
@@ -254,7 +273,10 @@ std::shared_ptr<TrackerData> take_tracker(XrHandTrackerEXT tracker) noexcept {
 
 XRAPI_ATTR XrResult XRAPI_CALL DestroyHandTrackerEXT(XrHandTrackerEXT tracker) noexcept {
   const auto t = take_tracker(tracker);
-  if (!t) return XR_ERROR_HANDLE_INVALID;
+  if (!t) {
+    const auto inst = hand_instance();  // unknown here: the runtime judges the handle
+    return inst ? inst->DestroyHandTrackerEXT(tracker) : XR_ERROR_HANDLE_INVALID;
+  }
   release_tracker(*t);
   return t->inst->DestroyHandTrackerEXT(tracker);
 }
@@ -465,7 +487,10 @@ void filter_answer(TrackerData& t, const XrHandJointsLocateInfoEXT& info, XrHand
 XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, const XrHandJointsLocateInfoEXT* info,
                                                    XrHandJointLocationsEXT* out) noexcept {
   const auto t = find_shared(reg().trackers, tracker);
-  if (!t) return XR_ERROR_HANDLE_INVALID;
+  if (!t) {
+    const auto inst = hand_instance();  // unknown here: unfiltered, the runtime judges the handle
+    return inst ? inst->LocateHandJointsEXT(tracker, info, out) : XR_ERROR_HANDLE_INVALID;
+  }
   const XrResult res = t->inst->LocateHandJointsEXT(tracker, info, out);
   // The runtime validated the arguments; an inactive hand has nothing to filter.
   if (XR_FAILED(res) || t->passthrough.load(std::memory_order_relaxed) || !out->isActive ||
@@ -569,7 +594,10 @@ std::vector<std::shared_ptr<TrackerData>> take_trackers(auto&& belongs) noexcept
 
 XRAPI_ATTR XrResult XRAPI_CALL DestroySession(XrSession session) noexcept {
   const auto inst = find_shared(reg().sessions, session);
-  if (!inst) return XR_ERROR_HANDLE_INVALID;
+  if (!inst) {
+    const auto any = hand_instance();  // unknown here: the runtime judges the handle
+    return any ? any->DestroySession(session) : XR_ERROR_HANDLE_INVALID;
+  }
   for (const auto& t : take_trackers([&](const TrackerData& d) { return d.session == session; })) release_tracker(*t);
   {
     std::unique_lock lock(reg().mu);
@@ -620,9 +648,7 @@ XRAPI_ATTR XrResult XRAPI_CALL GetInstanceProcAddr(XrInstance instance, const ch
   }
   if (inst->hand_tracking && inst->config.mode != Mode::Off) {
     // Hooked only when the app enabled XR_EXT_hand_tracking and the runtime has them.
-    const bool have = inst->CreateHandTrackerEXT && inst->DestroyHandTrackerEXT && inst->LocateHandJointsEXT &&
-                      inst->CreateSession && inst->DestroySession;
-    if (have) {
+    if (has_hand_functions(*inst)) {
       if (n == "xrCreateSession") return ours(&CreateSession);
       if (n == "xrDestroySession") return ours(&DestroySession);
       if (n == "xrCreateHandTrackerEXT") return ours(&CreateHandTrackerEXT);
