@@ -40,6 +40,19 @@ std::unique_ptr<TrackerFilter> one_euro_filter(Execution exec) {
 
 constexpr XrTime kPeriod = 11'111'111;
 
+// A runtime's answer of `raw`: every joint valid and tracked, identity orientations, 1 cm radii.
+std::array<XrHandJointLocationEXT, kJointCount> tracked_joints(const Pose& raw) {
+  std::array<XrHandJointLocationEXT, kJointCount> joints{};
+  for (int j = 0; j < kJointCount; ++j) {
+    joints[j].locationFlags = XR_SPACE_LOCATION_POSITION_VALID_BIT | XR_SPACE_LOCATION_POSITION_TRACKED_BIT |
+                              XR_SPACE_LOCATION_ORIENTATION_VALID_BIT | XR_SPACE_LOCATION_ORIENTATION_TRACKED_BIT;
+    joints[j].pose.position = xr::to_xr(Eigen::Vector3d(raw.row(j).transpose()));
+    joints[j].pose.orientation = {0, 0, 0, 1};
+    joints[j].radius = 0.01f;
+  }
+  return joints;
+}
+
 }  // namespace
 
 TEST_CASE("gate: origin, denormal, NaN, 1e30 and stray joints are marked missing, too few joints is no hand") {
@@ -363,15 +376,8 @@ TEST_CASE("tracker filter: a joint that was unknown gets its velocity from more 
 }
 
 TEST_CASE("joint rewrite: weight, smoothing and garbage, an estimate elsewhere replaces nothing") {
-  std::array<XrHandJointLocationEXT, kJointCount> joints{};
   const Pose raw = hand_at(0.0);
-  for (int j = 0; j < kJointCount; ++j) {
-    joints[j].locationFlags = XR_SPACE_LOCATION_POSITION_VALID_BIT | XR_SPACE_LOCATION_POSITION_TRACKED_BIT |
-                              XR_SPACE_LOCATION_ORIENTATION_VALID_BIT | XR_SPACE_LOCATION_ORIENTATION_TRACKED_BIT;
-    joints[j].pose.position = xr::to_xr(Eigen::Vector3d(raw.row(j).transpose()));
-    joints[j].pose.orientation = {0, 0, 0, 1};
-    joints[j].radius = 0.01f;
-  }
+  auto joints = tracked_joints(raw);
   joints[9].pose.position = {0.0f, 0.0f, 0.0f};  // garbage flagged tracked
   auto centre = [](Pose p) { return gate_joints(p).centre; };
   Answer ans;
@@ -406,15 +412,8 @@ TEST_CASE("joint rewrite: weight, smoothing and garbage, an estimate elsewhere r
 }
 
 TEST_CASE("repair: a garbage joint takes the plausible joint fewest bones away, not the wrist") {
-  std::array<XrHandJointLocationEXT, kJointCount> joints{};
   const Pose raw = hand_at(0.0);
-  for (int j = 0; j < kJointCount; ++j) {
-    joints[j].pose.position = xr::to_xr(Eigen::Vector3d(raw.row(j).transpose()));
-    joints[j].pose.orientation = {0, 0, 0, 1};
-    joints[j].locationFlags = XR_SPACE_LOCATION_POSITION_VALID_BIT | XR_SPACE_LOCATION_POSITION_TRACKED_BIT |
-                              XR_SPACE_LOCATION_ORIENTATION_VALID_BIT | XR_SPACE_LOCATION_ORIENTATION_TRACKED_BIT;
-    joints[j].radius = 0.01f;
-  }
+  auto joints = tracked_joints(raw);
   // The ring finger's metacarpal, proximal and intermediate at the origin, flagged tracked.
   const int meta = XR_HAND_JOINT_RING_METACARPAL_EXT, prox = XR_HAND_JOINT_RING_PROXIMAL_EXT,
             inter = XR_HAND_JOINT_RING_INTERMEDIATE_EXT, distal = XR_HAND_JOINT_RING_DISTAL_EXT;
@@ -436,15 +435,9 @@ TEST_CASE("repair: a garbage joint takes the plausible joint fewest bones away, 
 }
 
 TEST_CASE("repair: a radius no hand has, where the position is valid, becomes a neighbour's, 0 stays") {
-  std::array<XrHandJointLocationEXT, kJointCount> joints{};
-  const Pose raw = hand_at(0.0);
-  for (int j = 0; j < kJointCount; ++j) {
-    joints[j].pose.position = xr::to_xr(Eigen::Vector3d(raw.row(j).transpose()));
-    joints[j].pose.orientation = {0, 0, 0, 1};
-    joints[j].locationFlags = XR_SPACE_LOCATION_POSITION_VALID_BIT | XR_SPACE_LOCATION_POSITION_TRACKED_BIT |
-                              XR_SPACE_LOCATION_ORIENTATION_VALID_BIT | XR_SPACE_LOCATION_ORIENTATION_TRACKED_BIT;
+  auto joints = tracked_joints(hand_at(0.0));
+  for (int j = 0; j < kJointCount; ++j)
     joints[j].radius = 0.005f + 0.0001f * static_cast<float>(j);  // each joint its own, to see whose is taken
-  }
   const float nan = std::numeric_limits<float>::quiet_NaN();
   const int inter = XR_HAND_JOINT_INDEX_INTERMEDIATE_EXT, distal = XR_HAND_JOINT_INDEX_DISTAL_EXT,
             tip = XR_HAND_JOINT_INDEX_TIP_EXT, ring = XR_HAND_JOINT_RING_PROXIMAL_EXT,

@@ -33,6 +33,18 @@ int64_t parse_ms(const std::string& text, const char* var) {
   return static_cast<int64_t>(ms * 1e6 + 0.5);
 }
 
+// The comma-separated items of a list variable (an empty item stays: the caller names it).
+std::vector<std::string> split_commas(const std::string& s) {
+  std::vector<std::string> items;
+  size_t start = 0;
+  for (;;) {
+    const size_t comma = s.find(',', start);
+    items.push_back(s.substr(start, comma == std::string::npos ? std::string::npos : comma - start));
+    if (comma == std::string::npos) return items;
+    start = comma + 1;
+  }
+}
+
 }  // namespace
 
 ShimConfig shim_config_from_env() {
@@ -107,14 +119,7 @@ ShimConfig shim_config_from_env() {
 
   if (std::string s = env("HANDSTEADY_SHIM_RECENTER"); !s.empty()) {
     std::vector<double> v;
-    size_t start = 0;
-    for (;;) {
-      const size_t comma = s.find(',', start);
-      v.push_back(parse_number(s.substr(start, comma == std::string::npos ? std::string::npos : comma - start),
-                               "HANDSTEADY_SHIM_RECENTER"));
-      if (comma == std::string::npos) break;
-      start = comma + 1;
-    }
+    for (const std::string& item : split_commas(s)) v.push_back(parse_number(item, "HANDSTEADY_SHIM_RECENTER"));
     if (v.size() != 5 || !std::isfinite(v[0] + v[1] + v[2] + v[3] + v[4]))
       throw std::invalid_argument("HANDSTEADY_SHIM_RECENTER: expected <track_s>,<dx_m>,<dy_m>,<dz_m>,<yaw_deg>, got '" +
                                   s + "'");
@@ -125,10 +130,7 @@ ShimConfig shim_config_from_env() {
     c.recenter = rc;
   }
   if (std::string s = env("HANDSTEADY_SHIM_FAULTS"); !s.empty()) {
-    size_t start = 0;
-    while (start <= s.size()) {
-      const size_t comma = s.find(',', start);
-      const std::string item = s.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
+    for (const std::string& item : split_commas(s)) {
       const auto colon = item.find(':');
       if (colon == std::string::npos) throw std::invalid_argument("HANDSTEADY_SHIM_FAULTS: expected kind:prob, got '" + item + "'");
       const std::string kind = item.substr(0, colon);
@@ -143,8 +145,6 @@ ShimConfig shim_config_from_env() {
       else if (kind == "radius") c.faults.radius = p;
       else if (kind == "collapse") c.faults.collapse = p;
       else throw std::invalid_argument("HANDSTEADY_SHIM_FAULTS: unknown fault '" + kind + "'");
-      if (comma == std::string::npos) break;
-      start = comma + 1;
     }
   }
   return c;

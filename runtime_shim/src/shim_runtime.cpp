@@ -111,6 +111,9 @@ Rigid yaw_pitch(double yaw, double pitch, const Eigen::Vector3d& pos) {
   return r;
 }
 
+// LOCAL after the recentring, in the world (= LOCAL before it).
+Rigid recentred_local(const Recenter& rc) { return yaw_pitch(rc.yaw_rad, 0.0, rc.offset_m); }
+
 // Pose of a reference space in the world (= LOCAL) frame at track time t (s).
 Rigid reference_in_world(const Runtime& r, XrReferenceSpaceType type, double t) {
   constexpr double tau = 2.0 * std::numbers::pi;
@@ -125,8 +128,7 @@ Rigid reference_in_world(const Runtime& r, XrReferenceSpaceType type, double t) 
                        Eigen::Vector3d(0.08 * std::sin(tau * 0.4 * t), 0.03 * std::sin(tau * 0.7 * t),
                                        0.05 * std::sin(tau * 0.3 * t)));
     case XR_REFERENCE_SPACE_TYPE_LOCAL:
-      if (r.cfg.recenter && t >= r.cfg.recenter->at_s)
-        return yaw_pitch(r.cfg.recenter->yaw_rad, 0.0, r.cfg.recenter->offset_m);
+      if (r.cfg.recenter && t >= r.cfg.recenter->at_s) return recentred_local(*r.cfg.recenter);
       return Rigid::Identity();
     default:
       return Rigid::Identity();
@@ -149,7 +151,7 @@ void announce_recenter(Runtime& r, XrTime now) {
     ev->referenceSpaceType = XR_REFERENCE_SPACE_TYPE_LOCAL;
     ev->changeTime = r.clock.epoch + static_cast<XrTime>(std::llround((rc.at_s - r.clock.t0) * 1e9));
     ev->poseValid = XR_TRUE;
-    ev->poseInPreviousSpace = xr::to_xr(yaw_pitch(rc.yaw_rad, 0.0, rc.offset_m));
+    ev->poseInPreviousSpace = xr::to_xr(recentred_local(rc));
     r.events.push_back(buf);
   }
 }
