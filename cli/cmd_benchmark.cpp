@@ -41,6 +41,7 @@ struct BenchmarkOptions {
   bool smoothed = false;   // also each model with its prediction smoothing
   bool palm_fit = false;   // also raw and tuned One Euro behind the palm fit, and each model without it
   bool tremor = false;     // also raw and tuned One Euro behind the palm fit and tremor canceller, each model with it
+  bool bone_fit = false;   // also raw and tuned One Euro with the bone fit behind them, and each model without it
   bench::Options run;
 };
 
@@ -134,6 +135,7 @@ void run_benchmark(const BenchmarkOptions& o, const std::string& command) {
     };
     add("", [](FilterConfig&) {});
     if (o.palm_fit) add("-nopalmfit", [](FilterConfig& v) { v.palm_fit = false; });
+    if (o.bone_fit) add("-nobonefit", [](FilterConfig& v) { v.bone_fit = false; });
     if (o.gain) add("-gain", [](FilterConfig& v) { v.stgae.gain = true; });
     if (o.no_gain) add("-nogain", [](FilterConfig& v) { v.stgae.gain = false; });
     if (o.smoothed) add("-smoothed", [](FilterConfig& v) { v.stgae.smooth = true; });
@@ -147,6 +149,13 @@ void run_benchmark(const BenchmarkOptions& o, const std::string& command) {
     for (const auto& m : methods)
       if (m.name == "raw" || m.name == "oneeuro-tuned")
         fitted.push_back({m.name + "-palmfit", [make = m.make](const std::string& key) { return with_palm_fit(make(key)); }});
+    methods.insert(methods.begin() + classical, fitted.begin(), fitted.end());
+  }
+  if (o.bone_fit) {  // the bone fit alone, behind the plain baselines
+    std::vector<bench::Method> fitted;
+    for (const auto& m : methods)
+      if (m.name == "raw" || m.name == "oneeuro-tuned")
+        fitted.push_back({m.name + "-bonefit", [make = m.make](const std::string& key) { return with_bone_fit(make(key)); }});
     methods.insert(methods.begin() + classical, fitted.begin(), fitted.end());
   }
   if (o.tremor) {  // the canceller alone (behind the palm fit), in front of the plain baselines
@@ -180,6 +189,9 @@ void setup_benchmark(CLI::App& app) {
   sub->add_flag("--palm-fit", o->palm_fit,
                 "Also score raw and tuned One Euro behind the palm fit (raw-palmfit, oneeuro-tuned-palmfit) and each "
                 "model without it (LABEL-nopalmfit; docs/FILTERS.md \"Palm fit\")");
+  sub->add_flag("--bone-fit", o->bone_fit,
+                "Also score raw and tuned One Euro with the bone fit behind them (raw-bonefit, oneeuro-tuned-bonefit) "
+                "and each model without it (LABEL-nobonefit; docs/FILTERS.md \"Bone fit\")");
   sub->add_flag("--tremor-cancel", o->tremor,
                 "Also score raw and tuned One Euro behind the palm fit and the tremor canceller (raw-tremor, "
                 "oneeuro-tuned-tremor) and each model with the canceller (LABEL-tremor; docs/FILTERS.md \"Tremor canceller\")");

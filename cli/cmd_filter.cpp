@@ -54,6 +54,8 @@ struct FilterOptions {
   bool palm_fit = false;     // fit the hand's rigid palm to each input row first (any method)
   bool no_palm_fit = false;  // ... not even for a network method (where it is the default)
   bool tremor_cancel = false;  // cancel quasi-periodic tremor in each input row first (any method)
+  bool bone_fit = false;     // move each answer's finger joints towards the learnt bone lengths (any method)
+  bool no_bone_fit = false;  // ... not even for a network method (where it is the default)
 };
 
 // The method and its parameters, from the command line.
@@ -77,6 +79,8 @@ FilterConfig filter_config(const FilterOptions& o) {
   if (o.palm_fit) c.palm_fit = true;
   if (o.no_palm_fit) c.palm_fit = false;
   c.tremor_cancel = o.tremor_cancel;
+  if (o.bone_fit) c.bone_fit = true;
+  if (o.no_bone_fit) c.bone_fit = false;
   return c;
 }
 
@@ -161,6 +165,8 @@ void run_filter(const FilterOptions& o) {
   if (o.gain && o.no_gain) throw InputError({"", 0, "--gain"}, "--gain and --no-gain contradict");
   if (o.palm_fit && o.no_palm_fit) throw InputError({"", 0, "--palm-fit"}, "--palm-fit and --no-palm-fit contradict");
   if (o.palm_fit && o.offline) throw InputError({"", 0, "--palm-fit"}, "--palm-fit streams; --offline has none");
+  if (o.bone_fit && o.no_bone_fit) throw InputError({"", 0, "--bone-fit"}, "--bone-fit and --no-bone-fit contradict");
+  if (o.bone_fit && o.offline) throw InputError({"", 0, "--bone-fit"}, "--bone-fit streams; --offline has none");
   if (o.tremor_cancel && o.offline)
     throw InputError({"", 0, "--tremor-cancel"}, "--tremor-cancel streams; --offline has none");
   if (!o.rate_models.empty() && (!stgae || o.offline))
@@ -242,6 +248,10 @@ void setup_filter(CLI::App& app) {
                 "Any method: fit the hand's rigid palm (learnt from the input) to each row's palm joints before "
                 "filtering (docs/FILTERS.md \"Palm fit\"; the default for stgae and dgn streaming)");
   sub->add_flag("--no-palm-fit", o->no_palm_fit, "stgae, dgn: without the palm fit (for comparison)");
+  sub->add_flag("--bone-fit", o->bone_fit,
+                "Any method: move each answer's finger joints towards the bone lengths learnt from the method's "
+                "answers (docs/FILTERS.md \"Bone fit\"; the default for stgae and dgn streaming)");
+  sub->add_flag("--no-bone-fit", o->no_bone_fit, "stgae, dgn: without the bone fit (for comparison)");
   sub->add_flag("--tremor-cancel", o->tremor_cancel,
                 "Cancel quasi-periodic tremor (3.5-12.5 Hz) in each input row before the method, behind the palm fit "
                 "(any method; docs/FILTERS.md \"Tremor canceller\")");

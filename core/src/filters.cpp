@@ -7,6 +7,7 @@
 #include "handsteady/filters.hpp"
 
 #include "handsteady/model_path.hpp"
+#include "handsteady/bone_fit.hpp"
 #include "handsteady/palm_fit.hpp"
 #include "handsteady/rate_choice.hpp"
 #include "handsteady/tremor_cancel.hpp"
@@ -275,6 +276,46 @@ class StageFilter final : public PoseFilter {
   double last_tracked_ = kNaN;  // the last row with a tracked joint (NaN: none since the start)
 };
 
+// The bone fit (bone_fit.hpp) behind a method: it learns from the method's answer at each
+// row it accepts and moves every answer's finger joints, at any time asked. A tracking gap
+// starts a take of the same hand (gap_policy.hpp), as for the stages in front: the lengths
+// are kept.
+class BoneFitFilter final : public PoseFilter {
+ public:
+  explicit BoneFitFilter(std::unique_ptr<PoseFilter> inner) : inner_(std::move(inner)) {}
+  void reset() noexcept override {
+    fit_.reset();
+    inner_->reset();
+    last_tracked_ = kNaN;
+  }
+  void restart() noexcept override {
+    fit_.resume();
+    inner_->restart();
+    last_tracked_ = kNaN;
+  }
+  bool push(double t, const Pose& observed) noexcept override {
+    if (!inner_->push(t, observed)) return false;
+    if (any_joint_finite(observed)) {
+      if (t - last_tracked_ > kModelResetGapS) fit_.resume();  // false while last_tracked_ is NaN
+      last_tracked_ = t;
+    }
+    inner_->estimate(t, answer_);
+    fit_.learn(t, answer_);
+    return true;
+  }
+  void estimate(double t, Pose& out) const noexcept override {
+    inner_->estimate(t, out);
+    fit_.apply(out);
+  }
+  double last_time() const noexcept override { return inner_->last_time(); }
+
+ private:
+  std::unique_ptr<PoseFilter> inner_;
+  BoneFit fit_;
+  Pose answer_ = untracked_pose();
+  double last_tracked_ = kNaN;
+};
+
 void require(bool ok, std::string_view what, double value) {
   if (!ok) throw std::invalid_argument(fmt::format("{}, got {}", what, value));
 }
@@ -385,6 +426,7 @@ std::unique_ptr<PoseFilter> make_method_filter(const FilterConfig& c) {
 std::unique_ptr<PoseFilter> make_filter(const FilterConfig& c) {
   require(c.max_gap_s > 0.0 && std::isfinite(c.max_gap_s), "max gap must be positive", c.max_gap_s);
   auto f = make_method_filter(c);
+  if (bone_fit_on(c)) f = with_bone_fit(std::move(f));
   if (c.tremor_cancel) f = with_tremor_cancel(std::move(f));
   return palm_fit_on(c) ? with_palm_fit(std::move(f)) : std::move(f);
 }
@@ -396,6 +438,15 @@ std::unique_ptr<PoseFilter> with_tremor_cancel(std::unique_ptr<PoseFilter> filte
 bool palm_fit_on(const FilterConfig& c) noexcept {
   if (is_network(c.method) && c.stgae.offline) return false;  // window mode has none
   return c.palm_fit.value_or(is_network(c.method));
+}
+
+bool bone_fit_on(const FilterConfig& c) noexcept {
+  if (is_network(c.method) && c.stgae.offline) return false;  // window mode has none
+  return c.bone_fit.value_or(is_network(c.method));
+}
+
+std::unique_ptr<PoseFilter> with_bone_fit(std::unique_ptr<PoseFilter> filter) {
+  return std::make_unique<BoneFitFilter>(std::move(filter));
 }
 
 std::unique_ptr<PoseFilter> with_palm_fit(std::unique_ptr<PoseFilter> filter) {
@@ -412,7 +463,8 @@ static std::string rate_models_summary(const StgaeParams& p) {
 }
 
 std::string filter_params_summary(const FilterConfig& c) {
-  const std::string fit = std::string(palm_fit_on(c) ? " palm_fit=1" : "") + (c.tremor_cancel ? " tremor_cancel=1" : "");
+  const std::string fit = std::string(palm_fit_on(c) ? " palm_fit=1" : "") + (bone_fit_on(c) ? " bone_fit=1" : "") +
+                          (c.tremor_cancel ? " tremor_cancel=1" : "");
   std::string s;
   switch (c.method) {
     case FilterMethod::Raw:

@@ -127,6 +127,10 @@ struct FilterConfig {
   // (palm_fit.hpp; any method). Unset: on for the network methods (part of their shipped
   // pipeline, with the trust region), off for the classical ones (the baselines).
   std::optional<bool> palm_fit;
+  // Move each answer's finger joints towards the bone lengths learnt from the method's
+  // answers (bone_fit.hpp; any method). Unset: on for the network methods, off for the
+  // classical ones (the baselines).
+  std::optional<bool> bone_fit;
   // Cancel quasi-periodic tremor (3.5-12.5 Hz) before the method sees the row, behind the
   // palm fit (tremor_cancel.hpp; any method; opt-in).
   bool tremor_cancel = false;
@@ -145,6 +149,12 @@ std::unique_ptr<PoseFilter> make_filter(const FilterConfig& config);
 bool palm_fit_on(const FilterConfig& config) noexcept;
 // Any filter behind the palm fit (what make_filter does when palm_fit_on).
 std::unique_ptr<PoseFilter> with_palm_fit(std::unique_ptr<PoseFilter> filter);
+
+// Whether make_filter puts the bone fit behind the method (config.bone_fit, or its
+// default; never for window mode).
+bool bone_fit_on(const FilterConfig& config) noexcept;
+// Any filter with the bone fit behind it (what make_filter does when bone_fit_on).
+std::unique_ptr<PoseFilter> with_bone_fit(std::unique_ptr<PoseFilter> filter);
 
 // Any filter behind the tremor canceller (what make_filter does when config.tremor_cancel).
 std::unique_ptr<PoseFilter> with_tremor_cancel(std::unique_ptr<PoseFilter> filter);

@@ -1,0 +1,72 @@
+#pragma once
+// A finger's bones keep their length: a zero-lag denoiser behind any method, learnt per hand.
+//
+// Every runtime's hand model and most recordings keep a finger bone's length from frame to
+// frame; a method's answer does not quite (noise left in it moves a joint along its bone as
+// much as across). BoneFit learns each finger bone's length from the method's answers
+// (learn(), a clipped running mean over kBoneTauS) and moves each finger's three outer
+// joints, the chain's root fixed, the least distance (least squares, the constraints
+// linearised at the answer, kBoneIterations times) that brings its bones towards those
+// lengths (apply()). How far: each bone's Wiener weight, the share of its length's
+// deviation that is fast (the step-to-step variance over the total), so a tracker whose
+// bones really change length (FPHA's mocap: 2-4 mm over a recording, slowly) is moved
+// little and a rigid skeleton's bones all the way. Chains with a missing joint are left
+// alone; nothing changes before kBoneMinRows answers. Other joints are never touched.
+// noexcept, no allocation. make_filter puts it behind the network methods by default
+// (FilterConfig::bone_fit). docs/FILTERS.md "Bone fit".
+#include "handsteady/skeleton.hpp"
+#include "handsteady/track.hpp"
+
+#include <array>
+
+namespace hs {
+
+// Each finger's chain: its root (the thumb's metacarpal, a finger's knuckle), then the
+// three joints apply() moves.
+inline constexpr std::array<std::array<int, 4>, 5> kFingerChains = {{
+    {idx(Joint::ThumbMetacarpal), idx(Joint::ThumbProximal), idx(Joint::ThumbDistal), idx(Joint::ThumbTip)},
+    {idx(Joint::IndexProximal), idx(Joint::IndexIntermediate), idx(Joint::IndexDistal), idx(Joint::IndexTip)},
+    {idx(Joint::MiddleProximal), idx(Joint::MiddleIntermediate), idx(Joint::MiddleDistal), idx(Joint::MiddleTip)},
+    {idx(Joint::RingProximal), idx(Joint::RingIntermediate), idx(Joint::RingDistal), idx(Joint::RingTip)},
+    {idx(Joint::LittleProximal), idx(Joint::LittleIntermediate), idx(Joint::LittleDistal), idx(Joint::LittleTip)},
+}};
+
+inline constexpr double kBoneTauS = 1.0;      // time constant of a bone's length and of its two variances
+inline constexpr double kBoneClipM = 0.002;   // a row moves the length estimate by at most this share of its deviation (m)
+inline constexpr int kBoneMinRows = 10;       // answers that teach the lengths before apply() moves a joint
+inline constexpr int kBoneIterations = 2;     // linearised least-squares steps per chain
+inline constexpr double kBoneStepGapS = 0.1;  // rows further apart do not measure a step
+inline constexpr double kBoneVarCapM2 = 1e-4; // a row adds at most (10 mm)^2 to a variance (an outlier's)
+
+class BoneFit {
+ public:
+  BoneFit() { reset(); }
+  // Forgets the hand.
+  void reset() noexcept;
+  // The same hand after a gap: keeps the lengths and their variances, forgets the last
+  // answer (a step over a gap is not noise).
+  void resume() noexcept;
+  // Learns each finger bone's length from the method's answer at time t (rows with a
+  // chain's joint missing teach that chain nothing).
+  void learn(double t, const Pose& answer) noexcept;
+  // Moves each finger chain's outer joints towards the learnt lengths (see above).
+  void apply(Pose& pose) const noexcept;
+  // Answers learnt from since reset().
+  int rows() const noexcept { return rows_; }
+  // Bone b (0-2) of chain c: its learnt length (m) and its weight in [0, 1].
+  double length(size_t c, size_t b) const noexcept { return bones_[c][b].length; }
+  double weight(size_t c, size_t b) const noexcept;
+
+ private:
+  struct Bone {
+    double length = 0.0;  // running mean (m); 0: not seen
+    double total = 0.0;   // running mean of (length now - length)^2
+    double fast = 0.0;    // running mean of half the squared step between answers
+    double last = 0.0;    // the last answer's length; 0: none to step from
+  };
+  std::array<std::array<Bone, 3>, kFingerChains.size()> bones_{};
+  double last_t_ = 0.0;
+  int rows_ = 0;
+};
+
+}  // namespace hs

@@ -1,0 +1,125 @@
+#include "handsteady/bone_fit.hpp"
+
+#include <Eigen/Dense>
+
+#include <algorithm>
+#include <cmath>
+
+namespace hs {
+
+namespace {
+using V3 = Eigen::Vector3d;
+
+V3 joint(const Pose& p, int j) { return p.row(j).transpose(); }
+
+bool chain_finite(const Pose& p, const std::array<int, 4>& chain) {
+  for (int j : chain)
+    if (!joint_finite(p, j)) return false;
+  return true;
+}
+}  // namespace
+
+void BoneFit::reset() noexcept {
+  bones_ = {};
+  last_t_ = 0.0;
+  rows_ = 0;
+}
+
+void BoneFit::resume() noexcept {
+  for (auto& chain : bones_)
+    for (Bone& b : chain) b.last = 0.0;
+}
+
+double BoneFit::weight(size_t c, size_t b) const noexcept {
+  const Bone& bone = bones_[c][b];
+  if (!(bone.total > 0.0)) return 0.0;
+  return std::clamp(bone.fast / bone.total, 0.0, 1.0);
+}
+
+void BoneFit::learn(double t, const Pose& answer) noexcept {
+  if (!std::isfinite(t)) return;
+  const double dt = rows_ > 0 ? t - last_t_ : 0.0;
+  if (rows_ > 0 && !(dt > 0.0)) return;  // an answer at the same time teaches nothing new
+  const bool step = rows_ > 0 && dt <= kBoneStepGapS;
+  // The share of the running means a row moves, by time, so any rate learns alike.
+  const double a = rows_ > 0 ? 1.0 - std::exp(-dt / kBoneTauS) : 1.0;
+  for (size_t c = 0; c < kFingerChains.size(); ++c) {
+    const auto& chain = kFingerChains[c];
+    if (!chain_finite(answer, chain)) {
+      for (Bone& b : bones_[c]) b.last = 0.0;
+      continue;
+    }
+    for (size_t i = 0; i < 3; ++i) {
+      Bone& b = bones_[c][i];
+      const double len = (joint(answer, chain[i + 1]) - joint(answer, chain[i])).norm();
+      if (!std::isfinite(len) || len <= 0.0) continue;
+      if (b.length == 0.0) {
+        b.length = len;
+      } else {
+        const double d = len - b.length;
+        b.total += a * (std::min(d * d, kBoneVarCapM2) - b.total);
+        if (step && b.last > 0.0) {
+          const double s = len - b.last;
+          b.fast += a * (std::min(0.5 * s * s, kBoneVarCapM2) - b.fast);
+        }
+        b.length += a * std::clamp(d, -kBoneClipM, kBoneClipM);
+      }
+      b.last = step || b.last == 0.0 ? len : 0.0;
+    }
+  }
+  last_t_ = t;
+  ++rows_;
+}
+
+void BoneFit::apply(Pose& pose) const noexcept {
+  if (rows_ < kBoneMinRows) return;
+  for (size_t c = 0; c < kFingerChains.size(); ++c) {
+    const auto& chain = kFingerChains[c];
+    if (!chain_finite(pose, chain)) continue;
+    std::array<V3, 4> y, x;
+    for (size_t i = 0; i < 4; ++i) y[i] = x[i] = joint(pose, chain[i]);
+    // Each bone's target: its length now moved towards the learnt one by its weight.
+    std::array<double, 3> target{};
+    bool any = false;
+    for (size_t i = 0; i < 3; ++i) {
+      const double now = (y[i + 1] - y[i]).norm();
+      const double w = bones_[c][i].length > 0.0 ? weight(c, i) : 0.0;
+      target[i] = now + w * (bones_[c][i].length - now);
+      any = any || w > 0.0;
+    }
+    if (!any) continue;
+    bool ok = true;
+    for (int it = 0; it < kBoneIterations && ok; ++it) {
+      // Constraint i: u_i . (x_{i+1} - x_i) = target_i, u_i the bone's direction at the last
+      // step; the root x_0 is fixed. x = y - A^T (A A^T)^-1 (A y - target).
+      std::array<V3, 3> u;
+      for (size_t i = 0; i < 3; ++i) {
+        const V3 d = x[i + 1] - x[i];
+        const double n = d.norm();
+        if (!(n > 1e-9)) ok = false;
+        u[i] = ok ? V3(d / n) : V3::Zero();
+      }
+      if (!ok) break;
+      Eigen::Matrix3d m;
+      m << 1.0, -u[0].dot(u[1]), 0.0,
+           -u[0].dot(u[1]), 2.0, -u[1].dot(u[2]),
+           0.0, -u[1].dot(u[2]), 2.0;
+      Eigen::Vector3d g;
+      for (int i = 0; i < 3; ++i) g[i] = u[size_t(i)].dot(y[size_t(i) + 1] - y[size_t(i)]) - target[size_t(i)];
+      const Eigen::Vector3d lambda = m.ldlt().solve(g);
+      if (!lambda.allFinite()) {
+        ok = false;
+        break;
+      }
+      for (size_t k = 1; k < 4; ++k) {
+        V3 push = lambda[Eigen::Index(k - 1)] * u[k - 1];
+        if (k < 3) push -= lambda[Eigen::Index(k)] * u[k];
+        x[k] = y[k] - push;
+      }
+    }
+    if (!ok) continue;
+    for (size_t i = 1; i < 4; ++i) pose.row(chain[i]) = x[i].transpose();
+  }
+}
+
+}  // namespace hs
