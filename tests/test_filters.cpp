@@ -536,11 +536,12 @@ TEST_CASE("push and estimate never allocate") {
   delete probe;
   REQUIRE(g_allocations.load() >= 1);
 
-  for (const bool palm_fit : {false, true})  // also behind the palm fit (palm_fit.hpp)
+  for (const bool palm_fit : {false, true})  // also behind the palm fit and with the bone fit (palm_fit.hpp, bone_fit.hpp)
   for (FilterMethod method : kMethods) {
     FilterConfig c = config(method);
     c.oneeuro.extrapolate = true;
     c.palm_fit = palm_fit;
+    c.bone_fit = palm_fit;
     auto f = hs::make_filter(c);
     Pose out;
     Pose holey = m.pos[0];
@@ -554,7 +555,7 @@ TEST_CASE("push and estimate never allocate") {
     }
     f->reset();
     g_counting = false;
-    CHECK_MESSAGE(g_allocations.load() == 0, hs::filter_method_name(method) << (palm_fit ? " with the palm fit" : ""));
+    CHECK_MESSAGE(g_allocations.load() == 0, hs::filter_method_name(method) << (palm_fit ? " with the palm and bone fits" : ""));
   }
 }
 
@@ -571,13 +572,14 @@ TEST_CASE("Multi-STGAE is one more method of the same config: make_filter and fi
   for (const Pose& p : m.pos) s.pos.push_back(hs::test::synthetic_hand() + p);
   for (bool bounded : {true, false}) {
     c.stgae.bounded = bounded;
-    // The same answers as the adapter built directly, behind the palm fit (on by default).
-    const auto direct = hs::with_palm_fit(hs::make_stgae_filter(c.stgae.model, 0.0, 0, bounded));
+    // The same answers as the adapter built directly, with the bone fit behind it and the
+    // palm fit in front (both on by default).
+    const auto direct = hs::with_palm_fit(hs::with_bone_fit(hs::make_stgae_filter(c.stgae.model, 0.0, 0, bounded)));
     const hs::HandSeries a = hs::filter_series_with(c, s, 0.02), b = hs::filter_series(*direct, s, 0.02);
     REQUIRE(a.size() == b.size());
     for (size_t i = 0; i < a.size(); ++i) CHECK(same_pose(a.pos[i], b.pos[i]));
   }
-  CHECK(hs::filter_params_summary(c) == "model=causal.hsm rate_hz=30 window=16 horizon_frames=3 padding=causal mode=streaming phases=auto unbounded palm_fit=1");
+  CHECK(hs::filter_params_summary(c) == "model=causal.hsm rate_hz=30 window=16 horizon_frames=3 padding=causal mode=streaming phases=auto unbounded palm_fit=1 bone_fit=1");
   c.stgae.phases = 5;
   CHECK_THROWS_AS(hs::make_filter(c), std::invalid_argument);
   c.stgae.phases = 0;

@@ -664,6 +664,40 @@ TEST_CASE("configuration: palm_fit switches the rigid-palm fit for any engine, a
   std::filesystem::remove_all(dir);
 }
 
+TEST_CASE("configuration: bone_fit switches the bone fit behind any engine, auto leaves make_filter's default, a bad value warns") {
+  auto parse = [](const char* text, std::vector<std::string>& warnings) {
+    return hs::layer::parse_layer_config_json(text, "cfg.json", warnings);
+  };
+  std::vector<std::string> w;
+  CHECK_FALSE(parse("{}", w).filter.bone_fit.has_value());
+  CHECK(parse(R"({"bone_fit": false})", w).filter.bone_fit == false);
+  CHECK(parse(R"({"bone_fit": "on"})", w).filter.bone_fit == true);
+  CHECK_FALSE(parse(R"({"bone_fit": "auto"})", w).filter.bone_fit.has_value());
+  CHECK(w.empty());
+  CHECK_FALSE(parse(R"({"bone_fit": "sometimes"})", w).filter.bone_fit.has_value());
+  REQUIRE(w.size() == 1);
+  CHECK(w[0].find("cfg.json: bone_fit") != std::string::npos);
+  (void)parse(R"({"bone_fit": 1})", w);
+  REQUIRE(w.size() == 2);
+  CHECK(w[1].find("'bone_fit' must be") != std::string::npos);
+  // What the setting does: the classical engine gets the fit only when asked, the network by default.
+  hs::FilterConfig oneeuro = parse(R"({"method": "oneeuro", "bone_fit": true})", w).filter;
+  CHECK(hs::bone_fit_on(oneeuro));
+  oneeuro.bone_fit.reset();
+  CHECK_FALSE(hs::bone_fit_on(oneeuro));
+  // The environment overrides the file.
+  const auto dir = hs::test::temp_dir("layer_bone_fit_config");
+  const char* file = R"({"method": "kalman", "bone_fit": true})";
+  hs::layer::LoadedConfig read = read_file_and_env(dir, file, "HANDSTEADY_BONE_FIT", "off");
+  CHECK(read.config.filter.bone_fit == false);
+  CHECK(read.warnings.empty());
+  read = read_file_and_env(dir, file, "HANDSTEADY_BONE_FIT", "maybe");
+  CHECK(read.config.filter.bone_fit == true);  // the file's, kept
+  REQUIRE(read.warnings.size() == 1);
+  CHECK(read.warnings[0].find("HANDSTEADY_BONE_FIT") != std::string::npos);
+  std::filesystem::remove_all(dir);
+}
+
 TEST_CASE("configuration: tremor_cancel puts the tremor canceller in front of any engine, off by default, a bad value warns") {
   auto parse = [](const char* text, std::vector<std::string>& warnings) {
     return hs::layer::parse_layer_config_json(text, "cfg.json", warnings);

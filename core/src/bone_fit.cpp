@@ -40,9 +40,13 @@ void BoneFit::learn(double t, const Pose& answer) noexcept {
   if (!std::isfinite(t)) return;
   const double dt = rows_ > 0 ? t - last_t_ : 0.0;
   if (rows_ > 0 && !(dt > 0.0)) return;  // an answer at the same time teaches nothing new
+  bool any = false;
+  for (const auto& chain : kFingerChains) any = any || chain_finite(answer, chain);
+  if (!any) return;  // an untracked answer teaches nothing (and is no row)
   const bool step = rows_ > 0 && dt <= kBoneStepGapS;
-  // The share of the running means a row moves, by time, so any rate learns alike.
-  const double a = rows_ > 0 ? 1.0 - std::exp(-dt / kBoneTauS) : 1.0;
+  // The share of the running means a row moves, by time, so any rate learns alike; after
+  // a gap, no more than a row's.
+  const double a = rows_ > 0 ? 1.0 - std::exp(-std::min(dt, kBoneStepGapS) / kBoneTauS) : 1.0;
   for (size_t c = 0; c < kFingerChains.size(); ++c) {
     const auto& chain = kFingerChains[c];
     if (!chain_finite(answer, chain)) {
@@ -53,16 +57,18 @@ void BoneFit::learn(double t, const Pose& answer) noexcept {
       Bone& b = bones_[c][i];
       const double len = (joint(answer, chain[i + 1]) - joint(answer, chain[i])).norm();
       if (!std::isfinite(len) || len <= 0.0) continue;
+      // The running means start as plain means over the bone's first answers.
+      const double share = std::max(a, 1.0 / double(++b.seen));
       if (b.length == 0.0) {
         b.length = len;
       } else {
         const double d = len - b.length;
-        b.total += a * (std::min(d * d, kBoneVarCapM2) - b.total);
+        b.total += share * (std::min(d * d, kBoneVarCapM2) - b.total);
         if (step && b.last > 0.0) {
           const double s = len - b.last;
-          b.fast += a * (std::min(0.5 * s * s, kBoneVarCapM2) - b.fast);
+          b.fast += std::max(a, 1.0 / double(++b.steps)) * (std::min(0.5 * s * s, kBoneVarCapM2) - b.fast);
         }
-        b.length += a * std::clamp(d, -kBoneClipM, kBoneClipM);
+        b.length += share * std::clamp(d, -kBoneClipM, kBoneClipM);
       }
       b.last = step || b.last == 0.0 ? len : 0.0;
     }
@@ -71,11 +77,16 @@ void BoneFit::learn(double t, const Pose& answer) noexcept {
   ++rows_;
 }
 
-void BoneFit::apply(Pose& pose) const noexcept {
+void BoneFit::apply(Pose& pose, const JointMask* observed) const noexcept {
   if (rows_ < kBoneMinRows) return;
   for (size_t c = 0; c < kFingerChains.size(); ++c) {
     const auto& chain = kFingerChains[c];
     if (!chain_finite(pose, chain)) continue;
+    // How readily each joint moves (the inverse of its weight in the least squares): a
+    // joint the method filled in (missing from its input) gives way first.
+    std::array<double, 4> give{};
+    for (size_t k = 1; k < 4; ++k)
+      give[k] = observed && !(*observed)[size_t(chain[k])] ? kBoneFilledGive : 1.0;
     std::array<V3, 4> y, x;
     for (size_t i = 0; i < 4; ++i) y[i] = x[i] = joint(pose, chain[i]);
     // Each bone's target: its length now moved towards the learnt one by its weight.
@@ -100,10 +111,12 @@ void BoneFit::apply(Pose& pose) const noexcept {
         u[i] = ok ? V3(d / n) : V3::Zero();
       }
       if (!ok) break;
+      // A D A^T with D = diag(give): constraint i holds x_{i+1} (+u_i) and x_i (-u_i, i >= 1).
       Eigen::Matrix3d m;
-      m << 1.0, -u[0].dot(u[1]), 0.0,
-           -u[0].dot(u[1]), 2.0, -u[1].dot(u[2]),
-           0.0, -u[1].dot(u[2]), 2.0;
+      const double c01 = -give[1] * u[0].dot(u[1]), c12 = -give[2] * u[1].dot(u[2]);
+      m << give[1], c01, 0.0,
+           c01, give[1] + give[2], c12,
+           0.0, c12, give[2] + give[3];
       Eigen::Vector3d g;
       for (int i = 0; i < 3; ++i) g[i] = u[size_t(i)].dot(y[size_t(i) + 1] - y[size_t(i)]) - target[size_t(i)];
       const Eigen::Vector3d lambda = m.ldlt().solve(g);
@@ -114,7 +127,7 @@ void BoneFit::apply(Pose& pose) const noexcept {
       for (size_t k = 1; k < 4; ++k) {
         V3 push = lambda[Eigen::Index(k - 1)] * u[k - 1];
         if (k < 3) push -= lambda[Eigen::Index(k)] * u[k];
-        x[k] = y[k] - push;
+        x[k] = y[k] - give[k] * push;
       }
     }
     if (!ok) continue;

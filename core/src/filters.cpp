@@ -295,23 +295,24 @@ class BoneFitFilter final : public PoseFilter {
   }
   bool push(double t, const Pose& observed) noexcept override {
     if (!inner_->push(t, observed)) return false;
-    if (any_joint_finite(observed)) {
-      if (t - last_tracked_ > kModelResetGapS) fit_.resume();  // false while last_tracked_ is NaN
-      last_tracked_ = t;
-    }
+    if (!any_joint_finite(observed)) return true;  // the method's answer without a row holds or predicts: nothing to learn
+    if (t - last_tracked_ > kModelResetGapS) fit_.resume();  // false while last_tracked_ is NaN
+    last_tracked_ = t;
+    for (int j = 0; j < kJointCount; ++j) observed_[size_t(j)] = joint_finite(observed, j);
     inner_->estimate(t, answer_);
     fit_.learn(t, answer_);
     return true;
   }
   void estimate(double t, Pose& out) const noexcept override {
     inner_->estimate(t, out);
-    fit_.apply(out);
+    fit_.apply(out, &observed_);
   }
   double last_time() const noexcept override { return inner_->last_time(); }
 
  private:
   std::unique_ptr<PoseFilter> inner_;
   BoneFit fit_;
+  JointMask observed_{};  // the joints of the last tracked row
   Pose answer_ = untracked_pose();
   double last_tracked_ = kNaN;
 };

@@ -116,6 +116,11 @@ struct Applier {
     else if (v == "auto") c.filter.palm_fit.reset();
     else warnings.push_back(where + ": unknown palm fit setting '" + v + "' (auto, on, off)");
   }
+  void bone_fit(const std::string& v, const std::string& where) {
+    if (auto on = parse_on_off(v)) c.filter.bone_fit = *on;
+    else if (v == "auto") c.filter.bone_fit.reset();
+    else warnings.push_back(where + ": unknown bone fit setting '" + v + "' (auto, on, off)");
+  }
   void tremor_cancel(const std::string& v, const std::string& where) {
     if (auto on = parse_on_off(v)) c.filter.tremor_cancel = *on;
     else warnings.push_back(where + ": unknown tremor canceller setting '" + v + "' (on, off)");
@@ -206,6 +211,7 @@ void apply_json(std::string_view text, const std::string& where, Applier& a) {
     else a.warnings.push_back(where + ": '" + key + "' must be " + expected);
   };
   switch_key("palm_fit", &Applier::palm_fit, "true, false or \"auto\"");
+  switch_key("bone_fit", &Applier::bone_fit, "true, false or \"auto\"");
   switch_key("tremor_cancel", &Applier::tremor_cancel, "true or false");
   switch_key("prediction_smoothing", &Applier::prediction_smoothing, "true or false");
   switch_key("correction_gain", &Applier::correction_gain, "true, false or \"auto\"");
@@ -325,12 +331,13 @@ void resolve_engine(LayerConfig& c, std::vector<LogMessage>& messages) {
         messages.push_back({LogLevel::Error, "engine " + net_name + ": rate model " + r + " cannot be used: " + e.what()});
       }
     }
-    const bool palm = palm_fit_on(stgae);
+    const bool palm = palm_fit_on(stgae), bones = bone_fit_on(stgae);
     c.filter = std::move(stgae);
     c.model_path = file.string();
     messages.push_back({LogLevel::Info, "engine " + net_name + ": model " + file.string() +
                                             (requested ? " (method " + net_name + ")" : " (default: a model was found)") +
                                             (palm ? ", palm fit on" : ", palm fit off") +
+                                            (bones ? ", bone fit on" : ", bone fit off") +
                                             (c.filter.tremor_cancel ? ", tremor canceller on" : "") +
                                             (c.filter.stgae.smooth ? ", predictions smoothed" : "") +
                                             (!c.filter.stgae.gain ? "" : *c.filter.stgae.gain ? ", correction gain on at every rate"
@@ -419,6 +426,7 @@ LoadedConfig read_layer_config() {
     else out.warnings.push_back("HANDSTEADY_STGAE_PHASES: not a number: '" + *v + "'");
   }
   if (auto v = env("HANDSTEADY_PALM_FIT")) a.palm_fit(*v, "HANDSTEADY_PALM_FIT");
+  if (auto v = env("HANDSTEADY_BONE_FIT")) a.bone_fit(*v, "HANDSTEADY_BONE_FIT");
   if (auto v = env("HANDSTEADY_TREMOR_CANCEL")) a.tremor_cancel(*v, "HANDSTEADY_TREMOR_CANCEL");
   if (auto v = env("HANDSTEADY_PREDICTION_SMOOTHING")) a.prediction_smoothing(*v, "HANDSTEADY_PREDICTION_SMOOTHING");
   if (auto v = env("HANDSTEADY_CORRECTION_GAIN")) a.correction_gain(*v, "HANDSTEADY_CORRECTION_GAIN");

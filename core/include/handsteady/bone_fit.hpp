@@ -37,6 +37,10 @@ inline constexpr int kBoneMinRows = 10;       // answers that teach the lengths 
 inline constexpr int kBoneIterations = 2;     // linearised least-squares steps per chain
 inline constexpr double kBoneStepGapS = 0.1;  // rows further apart do not measure a step
 inline constexpr double kBoneVarCapM2 = 1e-4; // a row adds at most (10 mm)^2 to a variance (an outlier's)
+inline constexpr double kBoneFilledGive = 10.0; // a joint the method filled in moves this many times as readily
+
+// Which joints the method's last input row had (apply() moves the others first).
+using JointMask = std::array<bool, kJointCount>;
 
 class BoneFit {
  public:
@@ -49,8 +53,9 @@ class BoneFit {
   // Learns each finger bone's length from the method's answer at time t (rows with a
   // chain's joint missing teach that chain nothing).
   void learn(double t, const Pose& answer) noexcept;
-  // Moves each finger chain's outer joints towards the learnt lengths (see above).
-  void apply(Pose& pose) const noexcept;
+  // Moves each finger chain's outer joints towards the learnt lengths (see above); with
+  // `observed`, a joint missing from the method's input gives way first.
+  void apply(Pose& pose, const JointMask* observed = nullptr) const noexcept;
   // Answers learnt from since reset().
   int rows() const noexcept { return rows_; }
   // Bone b (0-2) of chain c: its learnt length (m) and its weight in [0, 1].
@@ -63,6 +68,8 @@ class BoneFit {
     double total = 0.0;   // running mean of (length now - length)^2
     double fast = 0.0;    // running mean of half the squared step between answers
     double last = 0.0;    // the last answer's length; 0: none to step from
+    int seen = 0;         // answers learnt from (the means are plain means at first)
+    int steps = 0;        // steps learnt from
   };
   std::array<std::array<Bone, 3>, kFingerChains.size()> bones_{};
   double last_t_ = 0.0;
