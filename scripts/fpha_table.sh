@@ -14,6 +14,8 @@
 # (opt-in; docs/STGAE.md "Prediction smoothing").
 # HS_FPHA_TREMOR=1 adds `stgae-tremor`: the network behind the palm fit and the tremor
 # canceller (opt-in; docs/FILTERS.md "Tremor canceller").
+# HS_FPHA_NOBONEFIT=1 adds `stgae-nobonefit`: the network without the bone fit behind it
+# (docs/FILTERS.md "Bone fit"; these were the `stgae` rows before 2026-12-03).
 # HS_FPHA_NOGUARD=1 adds `stgae-noguard`: the network without its oscillation guard
 # (docs/STGAE.md "Oscillation guard").
 # HS_FPHA_NET=dgn runs the network rows with `--method dgn` (label `dgn`, the extra rows
@@ -61,6 +63,7 @@ for preset in tracker paper tremor; do
   [ "${HS_FPHA_NOPALMFIT:-0}" = 1 ] && [ $has_net = 1 ] && extra "$net-nopalmfit" "${model[@]}" --no-palm-fit
   [ "${HS_FPHA_SMOOTHED:-0}" = 1 ] && [ $has_net = 1 ] && extra "$net-smoothed" "${model[@]}" --smooth-predictions
   [ "${HS_FPHA_NOGUARD:-0}" = 1 ] && [ $has_net = 1 ] && extra "$net-noguard" "${model[@]}" --no-guard
+  [ "${HS_FPHA_NOBONEFIT:-0}" = 1 ] && [ $has_net = 1 ] && extra "$net-nobonefit" "${model[@]}" --no-bone-fit
   [ "${HS_FPHA_TREMOR:-0}" = 1 ] && [ $has_net = 1 ] && extra "$net-tremor" "${model[@]}" --tremor-cancel
   [ -n "${HS_CENTRED_MODEL:-}" ] && extra "$net-centred-window" --offline --model "$HS_CENTRED_MODEL"
   echo "#### \`$preset\` preset: denoising (H = 0)"

@@ -23,11 +23,16 @@ void BoneFit::reset() noexcept {
   bones_ = {};
   last_t_ = 0.0;
   rows_ = 0;
+  take_rows_ = 0;
 }
 
 void BoneFit::resume() noexcept {
   for (auto& chain : bones_)
-    for (Bone& b : chain) b.last = 0.0;
+    for (Bone& b : chain) {
+      b.last = 0.0;
+      b.seen = 0;  // the take's first answers set the lengths anew (a tracker may re-measure the hand)
+    }
+  take_rows_ = 0;
 }
 
 double BoneFit::weight(size_t c, size_t b) const noexcept {
@@ -75,10 +80,11 @@ void BoneFit::learn(double t, const Pose& answer) noexcept {
   }
   last_t_ = t;
   ++rows_;
+  ++take_rows_;
 }
 
 void BoneFit::apply(Pose& pose, const JointMask* observed) const noexcept {
-  if (rows_ < kBoneMinRows) return;
+  if (take_rows_ < kBoneMinRows) return;
   for (size_t c = 0; c < kFingerChains.size(); ++c) {
     const auto& chain = kFingerChains[c];
     if (!chain_finite(pose, chain)) continue;

@@ -74,6 +74,7 @@ class BoneFit {
   std::array<std::array<Bone, 3>, kFingerChains.size()> bones_{};
   double last_t_ = 0.0;
   int rows_ = 0;
+  int take_rows_ = 0;  // answers learnt from since the take began
 };
 
 }  // namespace hs
