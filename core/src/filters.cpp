@@ -370,8 +370,11 @@ std::unique_ptr<PoseFilter> make_network_filter(const FilterConfig& c) {
                                               filter_method_name(network_method(m))));
   };
   if (p.model) require_family(*p.model, p.source);
+  // The bone fit behind each model's adapter, so that each learns from its own model's
+  // answers (an input gets exactly the answers of its model alone).
   const auto adapter = [&](const std::shared_ptr<const StgaeModel>& m) {
-    return make_stgae_filter(m, 0.0, p.phases, p.bounded, p.gain, p.smooth, p.guard);
+    auto f = make_stgae_filter(m, 0.0, p.phases, p.bounded, p.gain, p.smooth, p.guard);
+    return bone_fit_on(c) ? with_bone_fit(std::move(f)) : std::move(f);
   };
   if (p.rate_models.empty()) return adapter(p.model);
   if (!p.model) throw std::invalid_argument("network method: rate models need a model to pair with");
@@ -427,7 +430,7 @@ std::unique_ptr<PoseFilter> make_method_filter(const FilterConfig& c) {
 std::unique_ptr<PoseFilter> make_filter(const FilterConfig& c) {
   require(c.max_gap_s > 0.0 && std::isfinite(c.max_gap_s), "max gap must be positive", c.max_gap_s);
   auto f = make_method_filter(c);
-  if (bone_fit_on(c)) f = with_bone_fit(std::move(f));
+  if (bone_fit_on(c) && !is_network(c.method)) f = with_bone_fit(std::move(f));  // the networks': behind each model
   if (c.tremor_cancel) f = with_tremor_cancel(std::move(f));
   return palm_fit_on(c) ? with_palm_fit(std::move(f)) : std::move(f);
 }

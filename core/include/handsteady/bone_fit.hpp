@@ -11,7 +11,7 @@
 // deviation that is fast (the step-to-step variance over the total), so a tracker whose
 // bones really change length (FPHA's mocap: 2-4 mm over a recording, slowly) is moved
 // little and a rigid skeleton's bones all the way. Chains with a missing joint are left
-// alone; nothing changes before kBoneMinRows answers. Other joints are never touched.
+// alone; nothing changes before kBoneMinRows answers of a take. Other joints are never touched.
 // noexcept, no allocation. make_filter puts it behind the network methods by default
 // (FilterConfig::bone_fit). docs/FILTERS.md "Bone fit".
 #include "handsteady/skeleton.hpp"
@@ -47,8 +47,10 @@ class BoneFit {
   BoneFit() { reset(); }
   // Forgets the hand.
   void reset() noexcept;
-  // The same hand after a gap: keeps the lengths and their variances, forgets the last
-  // answer (a step over a gap is not noise).
+  // A new take after a gap: keeps the variances (the tracker's noise), learns the lengths
+  // anew from the take's first answers (a tracker may re-measure the hand: Leap Motion
+  // does) and forgets the last answer (a step over a gap is not noise). Nothing moves
+  // before the take's kBoneMinRows-th answer.
   void resume() noexcept;
   // Learns each finger bone's length from the method's answer at time t (rows with a
   // chain's joint missing teach that chain nothing).
