@@ -75,7 +75,10 @@ void BoneFit::learn(double t, const Pose& answer) noexcept {
         }
         b.length += share * std::clamp(d, -kBoneClipM, kBoneClipM);
       }
-      b.last = step || b.last == 0.0 ? len : 0.0;
+      // The base of the next step; a row after a pause (over kBoneStepGapS, not long enough
+      // for a take) measures no step and is no base either: the row after it starts anew.
+      if (step || b.last == 0.0) b.last = len;
+      else b.last = 0.0;
     }
   }
   last_t_ = t;
@@ -108,7 +111,7 @@ void BoneFit::apply(Pose& pose, const JointMask* observed) const noexcept {
     bool ok = true;
     for (int it = 0; it < kBoneIterations && ok; ++it) {
       // Constraint i: u_i . (x_{i+1} - x_i) = target_i, u_i the bone's direction at the last
-      // step; the root x_0 is fixed. x = y - A^T (A A^T)^-1 (A y - target).
+      // step; the root x_0 is fixed. x = y - D A^T (A D A^T)^-1 (A y - target), D = diag(give).
       std::array<V3, 3> u;
       for (size_t i = 0; i < 3; ++i) {
         const V3 d = x[i + 1] - x[i];
@@ -117,7 +120,7 @@ void BoneFit::apply(Pose& pose, const JointMask* observed) const noexcept {
         u[i] = ok ? V3(d / n) : V3::Zero();
       }
       if (!ok) break;
-      // A D A^T with D = diag(give): constraint i holds x_{i+1} (+u_i) and x_i (-u_i, i >= 1).
+      // A D A^T: constraint i holds x_{i+1} (+u_i) and x_i (-u_i, i >= 1).
       Eigen::Matrix3d m;
       const double c01 = -give[1] * u[0].dot(u[1]), c12 = -give[2] * u[1].dot(u[2]);
       m << give[1], c01, 0.0,

@@ -277,9 +277,9 @@ class StageFilter final : public PoseFilter {
 };
 
 // The bone fit (bone_fit.hpp) behind a method: it learns from the method's answer at each
-// row it accepts and moves every answer's finger joints, at any time asked. A tracking gap
-// starts a take of the same hand (gap_policy.hpp), as for the stages in front: the lengths
-// are kept.
+// tracked row it accepts and moves every answer's finger joints, at any time asked, a joint
+// missing from the last row giving way first. A tracking gap (gap_policy.hpp) starts a take,
+// as for the stages in front (BoneFit::resume: the lengths learnt anew, the noise kept).
 class BoneFitFilter final : public PoseFilter {
  public:
   explicit BoneFitFilter(std::unique_ptr<PoseFilter> inner) : inner_(std::move(inner)) {}
