@@ -134,7 +134,7 @@ TEST_CASE("Bone fit: bones that really change length slowly are moved little (th
   CHECK(out_err < 1.05 * in_err);
 }
 
-TEST_CASE("Bone fit: a chain with a missing joint is untouched, and learn ignores repeated and non-finite times") {
+TEST_CASE("Bone fit: a chain with a missing joint or a bone of zero length is untouched, and learn ignores repeated and non-finite times") {
   const hs::HandSeries truth = moving_hand(2.0);
   std::mt19937_64 rng(8);
   std::normal_distribution<double> noise(0.0, 0.002);
@@ -152,6 +152,15 @@ TEST_CASE("Bone fit: a chain with a missing joint is untouched, and learn ignore
   for (int j : index)
     if (j != index[2]) CHECK(row.row(j) == before.row(j));
   CHECK(row.row(kFingerChains[2][3]) != before.row(kFingerChains[2][3]));  // the other chains are fitted
+  // A bone of zero length (a runtime that puts two joints at one place) leaves its chain
+  // alone, with no NaN.
+  Pose flat = jittered(truth.pos[61], rng, noise);
+  const auto& middle = kFingerChains[2];
+  flat.row(middle[2]) = flat.row(middle[1]);
+  const Pose flat_before = flat;
+  fit.apply(flat);
+  CHECK(flat.allFinite());
+  for (int j : middle) CHECK(flat.row(j) == flat_before.row(j));
 }
 
 TEST_CASE("Bone fit: a joint the method filled in gives way before the joints it was given") {
