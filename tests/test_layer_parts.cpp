@@ -628,74 +628,50 @@ static hs::layer::LoadedConfig read_file_and_env(const std::filesystem::path& di
   return read;
 }
 
-TEST_CASE("configuration: palm_fit switches the rigid-palm fit for any engine, auto leaves make_filter's default, a bad value warns") {
-  auto parse = [](const char* text, std::vector<std::string>& warnings) {
+TEST_CASE("configuration: palm_fit and bone_fit switch their fit for any engine, auto leaves make_filter's default, a bad value warns") {
+  auto parse = [](const std::string& text, std::vector<std::string>& warnings) {
     return hs::layer::parse_layer_config_json(text, "cfg.json", warnings);
   };
-  std::vector<std::string> w;
-  CHECK_FALSE(parse("{}", w).filter.palm_fit.has_value());
-  CHECK(parse(R"({"palm_fit": false})", w).filter.palm_fit == false);
-  CHECK(parse(R"({"palm_fit": "on"})", w).filter.palm_fit == true);
-  CHECK_FALSE(parse(R"({"palm_fit": "auto"})", w).filter.palm_fit.has_value());
-  CHECK(w.empty());
-  hs::FilterConfig kept = parse(R"({"palm_fit": "sometimes"})", w).filter;
-  CHECK_FALSE(kept.palm_fit.has_value());
-  REQUIRE(w.size() == 1);
-  CHECK(w[0].find("cfg.json: palm_fit") != std::string::npos);
-  CHECK(w[0].find("sometimes") != std::string::npos);
-  (void)parse(R"({"palm_fit": 1})", w);
-  REQUIRE(w.size() == 2);
-  CHECK(w[1].find("'palm_fit' must be") != std::string::npos);
-  // What the setting does: the classical engine gets the fit only when asked.
-  hs::FilterConfig oneeuro = parse(R"({"method": "oneeuro", "palm_fit": true})", w).filter;
-  CHECK(hs::palm_fit_on(oneeuro));
-  oneeuro.palm_fit.reset();
-  CHECK_FALSE(hs::palm_fit_on(oneeuro));
-  // The environment overrides the file.
-  const auto dir = hs::test::temp_dir("layer_palm_fit_config");
-  const char* file = R"({"method": "kalman", "palm_fit": true})";
-  hs::layer::LoadedConfig read = read_file_and_env(dir, file, "HANDSTEADY_PALM_FIT", "off");
-  CHECK(read.config.filter.palm_fit == false);
-  CHECK(read.warnings.empty());
-  read = read_file_and_env(dir, file, "HANDSTEADY_PALM_FIT", "maybe");
-  CHECK(read.config.filter.palm_fit == true);  // the file's, kept
-  REQUIRE(read.warnings.size() == 1);
-  CHECK(read.warnings[0].find("HANDSTEADY_PALM_FIT") != std::string::npos);
-  std::filesystem::remove_all(dir);
-}
-
-TEST_CASE("configuration: bone_fit switches the bone fit behind any engine, auto leaves make_filter's default, a bad value warns") {
-  auto parse = [](const char* text, std::vector<std::string>& warnings) {
-    return hs::layer::parse_layer_config_json(text, "cfg.json", warnings);
+  struct Fit {
+    std::string key;  // the JSON key
+    const char* var;  // the environment variable
+    std::optional<bool> hs::FilterConfig::*field;
+    bool (*on)(const hs::FilterConfig&) noexcept;
   };
-  std::vector<std::string> w;
-  CHECK_FALSE(parse("{}", w).filter.bone_fit.has_value());
-  CHECK(parse(R"({"bone_fit": false})", w).filter.bone_fit == false);
-  CHECK(parse(R"({"bone_fit": "on"})", w).filter.bone_fit == true);
-  CHECK_FALSE(parse(R"({"bone_fit": "auto"})", w).filter.bone_fit.has_value());
-  CHECK(w.empty());
-  CHECK_FALSE(parse(R"({"bone_fit": "sometimes"})", w).filter.bone_fit.has_value());
-  REQUIRE(w.size() == 1);
-  CHECK(w[0].find("cfg.json: bone_fit") != std::string::npos);
-  (void)parse(R"({"bone_fit": 1})", w);
-  REQUIRE(w.size() == 2);
-  CHECK(w[1].find("'bone_fit' must be") != std::string::npos);
-  // What the setting does: the classical engine gets the fit only when asked, the network by default.
-  hs::FilterConfig oneeuro = parse(R"({"method": "oneeuro", "bone_fit": true})", w).filter;
-  CHECK(hs::bone_fit_on(oneeuro));
-  oneeuro.bone_fit.reset();
-  CHECK_FALSE(hs::bone_fit_on(oneeuro));
-  // The environment overrides the file.
-  const auto dir = hs::test::temp_dir("layer_bone_fit_config");
-  const char* file = R"({"method": "kalman", "bone_fit": true})";
-  hs::layer::LoadedConfig read = read_file_and_env(dir, file, "HANDSTEADY_BONE_FIT", "off");
-  CHECK(read.config.filter.bone_fit == false);
-  CHECK(read.warnings.empty());
-  read = read_file_and_env(dir, file, "HANDSTEADY_BONE_FIT", "maybe");
-  CHECK(read.config.filter.bone_fit == true);  // the file's, kept
-  REQUIRE(read.warnings.size() == 1);
-  CHECK(read.warnings[0].find("HANDSTEADY_BONE_FIT") != std::string::npos);
-  std::filesystem::remove_all(dir);
+  for (const Fit& f : {Fit{"palm_fit", "HANDSTEADY_PALM_FIT", &hs::FilterConfig::palm_fit, &hs::palm_fit_on},
+                       Fit{"bone_fit", "HANDSTEADY_BONE_FIT", &hs::FilterConfig::bone_fit, &hs::bone_fit_on}}) {
+    CAPTURE(f.key);
+    const auto json = [&](const std::string& value) { return "{\"" + f.key + "\": " + value + "}"; };
+    std::vector<std::string> w;
+    CHECK_FALSE((parse("{}", w).filter.*f.field).has_value());
+    CHECK((parse(json("false"), w).filter.*f.field) == false);
+    CHECK((parse(json("\"on\""), w).filter.*f.field) == true);
+    CHECK_FALSE((parse(json("\"auto\""), w).filter.*f.field).has_value());
+    CHECK(w.empty());
+    CHECK_FALSE((parse(json("\"sometimes\""), w).filter.*f.field).has_value());
+    REQUIRE(w.size() == 1);
+    CHECK(w[0].find("cfg.json: " + f.key) != std::string::npos);
+    CHECK(w[0].find("sometimes") != std::string::npos);
+    (void)parse(json("1"), w);
+    REQUIRE(w.size() == 2);
+    CHECK(w[1].find("'" + f.key + "' must be") != std::string::npos);
+    // What the setting does: the classical engine gets the fit only when asked.
+    hs::FilterConfig oneeuro = parse("{\"method\": \"oneeuro\", \"" + f.key + "\": true}", w).filter;
+    CHECK(f.on(oneeuro));
+    (oneeuro.*f.field).reset();
+    CHECK_FALSE(f.on(oneeuro));
+    // The environment overrides the file.
+    const auto dir = hs::test::temp_dir("layer_" + f.key + "_config");
+    const std::string file = "{\"method\": \"kalman\", \"" + f.key + "\": true}";
+    hs::layer::LoadedConfig read = read_file_and_env(dir, file.c_str(), f.var, "off");
+    CHECK((read.config.filter.*f.field) == false);
+    CHECK(read.warnings.empty());
+    read = read_file_and_env(dir, file.c_str(), f.var, "maybe");
+    CHECK((read.config.filter.*f.field) == true);  // the file's, kept
+    REQUIRE(read.warnings.size() == 1);
+    CHECK(read.warnings[0].find(f.var) != std::string::npos);
+    std::filesystem::remove_all(dir);
+  }
 }
 
 TEST_CASE("configuration: tremor_cancel puts the tremor canceller in front of any engine, off by default, a bad value warns") {
