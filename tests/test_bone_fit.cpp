@@ -19,12 +19,7 @@ using hs::kFingerChains;
 using hs::Pose;
 using hs::test::jittered;
 
-hs::HandSeries moving_hand(double seconds, double rate_hz = 90.0) {
-  hs::SynthMotionParams p;
-  p.duration_s = seconds;
-  p.rate_hz = rate_hz;
-  return hs::synth_motion(p, hs::Hand::Right, 5);
-}
+hs::HandSeries moving_hand(double seconds, double rate_hz = 90.0) { return hs::test::moving_hand(seconds, rate_hz, 5); }
 
 // The joints the fit may move: each chain's three outer joints.
 bool is_moved(int j) {

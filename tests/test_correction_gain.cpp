@@ -27,12 +27,7 @@ using hs::kJointCount;
 constexpr size_t kFs = 3 * kJointCount;
 constexpr double kRate = 90.0;
 
-hs::HandSeries moving_hand(double seconds, double rate = kRate) {
-  hs::SynthMotionParams p;
-  p.duration_s = seconds;
-  p.rate_hz = rate;
-  return hs::synth_motion(p, hs::Hand::Right, 7);
-}
+hs::HandSeries moving_hand(double seconds, double rate = kRate) { return hs::test::moving_hand(seconds, rate, 7); }
 
 
 // 8-12 Hz tremor of 1.5 mm (the hand) and 0.75 mm (the fingers) on `truth`: a noise the

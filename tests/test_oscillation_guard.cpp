@@ -20,12 +20,7 @@ using hs::kJointCount;
 using hs::OscillationGuard;
 constexpr size_t kFs = 3 * kJointCount;
 
-hs::HandSeries moving_hand(double seconds, double rate) {
-  hs::SynthMotionParams p;
-  p.duration_s = seconds;
-  p.rate_hz = rate;
-  return hs::synth_motion(p, hs::Hand::Right, 7);
-}
+hs::HandSeries moving_hand(double seconds, double rate) { return hs::test::moving_hand(seconds, rate, 7); }
 
 std::vector<float> frame_of(const hs::Pose& p) {
   std::vector<float> f(kFs);

@@ -21,12 +21,7 @@ using hs::PalmFit;
 using hs::test::jittered;
 using hs::Pose;
 
-hs::HandSeries moving_hand(double seconds, double rate_hz = 90.0) {
-  hs::SynthMotionParams p;
-  p.duration_s = seconds;
-  p.rate_hz = rate_hz;
-  return hs::synth_motion(p, hs::Hand::Right, 11);
-}
+hs::HandSeries moving_hand(double seconds, double rate_hz = 90.0) { return hs::test::moving_hand(seconds, rate_hz, 11); }
 
 bool is_palm(int j) { return std::find(kPalmJoints.begin(), kPalmJoints.end(), j) != kPalmJoints.end(); }
 

@@ -3,6 +3,7 @@
 #include <doctest/doctest.h>
 
 #include "handsteady/stgae_model.hpp"
+#include "handsteady/synth.hpp"
 #include "handsteady/track.hpp"
 
 #include <cstdio>
@@ -94,6 +95,15 @@ inline std::filesystem::path temp_dir(const std::string& name) {
   const std::lock_guard<std::mutex> lock(dirs.mutex);
   dirs.made.push_back(p);
   return p;
+}
+
+// A right hand in smooth synthetic motion (synth_motion: translation, rotation and finger
+// curl varying), `seconds` long at `rate_hz`, from `seed`.
+inline HandSeries moving_hand(double seconds, double rate_hz, uint64_t seed) {
+  SynthMotionParams p;
+  p.duration_s = seconds;
+  p.rate_hz = rate_hz;
+  return synth_motion(p, Hand::Right, seed);
 }
 
 // A plausible open right hand (metres): fingers straight along +y, palm in the xy plane,

@@ -45,16 +45,16 @@ void BoneFit::learn(double t, const Pose& answer) noexcept {
   if (!std::isfinite(t)) return;
   const double dt = rows_ > 0 ? t - last_t_ : 0.0;
   if (rows_ > 0 && !(dt > 0.0)) return;  // an answer at the same time teaches nothing new
-  bool any = false;
-  for (const auto& chain : kFingerChains) any = any || chain_finite(answer, chain);
-  if (!any) return;  // an untracked answer teaches nothing (and is no row)
+  std::array<bool, kFingerChains.size()> have{};
+  for (size_t c = 0; c < kFingerChains.size(); ++c) have[c] = chain_finite(answer, kFingerChains[c]);
+  if (std::none_of(have.begin(), have.end(), [](bool h) { return h; })) return;  // an untracked answer teaches nothing (and is no row)
   const bool step = rows_ > 0 && dt <= kBoneStepGapS;
   // The share of the running means a row moves, by time, so any rate learns alike; after
   // a gap, no more than a row's.
   const double a = rows_ > 0 ? 1.0 - std::exp(-std::min(dt, kBoneStepGapS) / kBoneTauS) : 1.0;
   for (size_t c = 0; c < kFingerChains.size(); ++c) {
     const auto& chain = kFingerChains[c];
-    if (!chain_finite(answer, chain)) {
+    if (!have[c]) {
       for (Bone& b : bones_[c]) b.last = 0.0;
       continue;
     }
@@ -103,7 +103,7 @@ void BoneFit::apply(Pose& pose, const JointMask* observed) const noexcept {
     bool any = false;
     for (size_t i = 0; i < 3; ++i) {
       const double now = (y[i + 1] - y[i]).norm();
-      const double w = bones_[c][i].length > 0.0 ? weight(c, i) : 0.0;
+      const double w = weight(c, i);  // 0 for a bone not yet seen (no variance learnt)
       target[i] = now + w * (bones_[c][i].length - now);
       any = any || w > 0.0;
     }

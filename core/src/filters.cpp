@@ -237,6 +237,22 @@ class KalmanFilter final : public JointwiseFilter<KalmanFilter> {
 // untracked rows come between: gap_policy.hpp) starts a new take: the palm fit keeps its
 // template, which the take's first rows check (the same person's hand usually comes
 // back); the canceller starts anew (its oscillator's phase does not carry over a gap).
+// The gap rule of gap_policy.hpp for a stage: a tracked row more than kModelResetGapS after
+// the last tracked one (untracked rows between do not count) starts a new take.
+class TakeClock {
+ public:
+  // For a tracked row at t: whether it starts a new take (never the first since clear()).
+  bool starts_take(double t) noexcept {
+    const bool gap = t - last_tracked_ > kModelResetGapS;  // false while last_tracked_ is NaN
+    last_tracked_ = t;
+    return gap;
+  }
+  void clear() noexcept { last_tracked_ = kNaN; }
+
+ private:
+  double last_tracked_ = kNaN;  // the last tracked row (NaN: none since clear())
+};
+
 inline void apply_stage(PalmFit& fit, double, Pose& row) noexcept { fit.apply(row); }
 inline void apply_stage(TremorCancel& cancel, double t, Pose& row) noexcept { cancel.apply(t, row); }
 inline void resume_stage(PalmFit& fit) noexcept { fit.resume(); }
@@ -249,19 +265,16 @@ class StageFilter final : public PoseFilter {
   void reset() noexcept override {
     stage_.reset();
     inner_->reset();
-    last_tracked_ = kNaN;
+    takes_.clear();
   }
   void restart() noexcept override {
     resume_stage(stage_);
     inner_->restart();
-    last_tracked_ = kNaN;
+    takes_.clear();
   }
   bool push(double t, const Pose& observed) noexcept override {
     if (!is_next_time(t, inner_->last_time())) return false;  // the stage learns from no row the filter refuses
-    if (any_joint_finite(observed)) {
-      if (t - last_tracked_ > kModelResetGapS) resume_stage(stage_);  // false while last_tracked_ is NaN
-      last_tracked_ = t;
-    }
+    if (any_joint_finite(observed) && takes_.starts_take(t)) resume_stage(stage_);
     row_ = observed;
     apply_stage(stage_, t, row_);
     return inner_->push(t, row_);
@@ -273,7 +286,7 @@ class StageFilter final : public PoseFilter {
   std::unique_ptr<PoseFilter> inner_;
   Stage stage_;
   Pose row_ = untracked_pose();
-  double last_tracked_ = kNaN;  // the last row with a tracked joint (NaN: none since the start)
+  TakeClock takes_;
 };
 
 // The bone fit (bone_fit.hpp) behind a method: it learns from the method's answer at each
@@ -286,18 +299,17 @@ class BoneFitFilter final : public PoseFilter {
   void reset() noexcept override {
     fit_.reset();
     inner_->reset();
-    last_tracked_ = kNaN;
+    takes_.clear();
   }
   void restart() noexcept override {
     fit_.resume();
     inner_->restart();
-    last_tracked_ = kNaN;
+    takes_.clear();
   }
   bool push(double t, const Pose& observed) noexcept override {
     if (!inner_->push(t, observed)) return false;
     if (!any_joint_finite(observed)) return true;  // the method's answer without a row holds or predicts: nothing to learn
-    if (t - last_tracked_ > kModelResetGapS) fit_.resume();  // false while last_tracked_ is NaN
-    last_tracked_ = t;
+    if (takes_.starts_take(t)) fit_.resume();
     for (int j = 0; j < kJointCount; ++j) observed_[size_t(j)] = joint_finite(observed, j);
     inner_->estimate(t, answer_);
     fit_.learn(t, answer_);
@@ -314,7 +326,7 @@ class BoneFitFilter final : public PoseFilter {
   BoneFit fit_;
   JointMask observed_{};  // the joints of the last tracked row
   Pose answer_ = untracked_pose();
-  double last_tracked_ = kNaN;
+  TakeClock takes_;
 };
 
 void require(bool ok, std::string_view what, double value) {
