@@ -17,10 +17,39 @@ bool chain_finite(const Pose& p, const std::array<int, 4>& chain) {
     if (!joint_finite(p, j)) return false;
   return true;
 }
+
+// The tip's signed distance from the plane of the chain's first three joints (normal
+// along bone 0 x bone 1), and with `grad` its gradient with respect to joints 1-3 (the root
+// is fixed). false where the first two bones are too close to a line for the plane to be
+// known (a straight finger: any tip is in some plane).
+bool tip_plane_offset(const std::array<V3, 4>& x, double& s, std::array<V3, 3>* grad) {
+  const V3 a = x[1] - x[0], b = x[2] - x[1], d = x[3] - x[2];
+  const V3 m = a.cross(b);
+  const double mn = m.norm();
+  if (!(mn >= kPlaneMinSin * a.norm() * b.norm()) || !(mn > 1e-12)) return false;
+  const V3 n = m / mn;
+  s = n.dot(d);
+  if (grad) {
+    // ds/da = b x d_perp / |m|, ds/db = d_perp x a / |m|, ds/dd = n; a = x1 - x0, b = x2 - x1, d = x3 - x2.
+    const V3 dp = (d - s * n) / mn;
+    const V3 ga = b.cross(dp), gb = dp.cross(a);
+    (*grad)[0] = ga - gb;
+    (*grad)[1] = gb - n;
+    (*grad)[2] = n;
+  }
+  return std::isfinite(s);
+}
+
+std::array<V3, 4> chain_points(const Pose& p, const std::array<int, 4>& chain) {
+  std::array<V3, 4> x;
+  for (size_t i = 0; i < 4; ++i) x[i] = joint(p, chain[i]);
+  return x;
+}
 }  // namespace
 
 void BoneFit::reset() noexcept {
   bones_ = {};
+  planes_ = {};
   last_t_ = 0.0;
   rows_ = 0;
   take_rows_ = 0;
@@ -32,7 +61,40 @@ void BoneFit::resume() noexcept {
       b.last = 0.0;
       b.seen = 0;  // the take's first answers set the lengths anew (a tracker may re-measure the hand)
     }
+  for (Plane& p : planes_) {
+    p.has_last = false;
+    p.seen = 0;
+  }
   take_rows_ = 0;
+}
+
+double BoneFit::plane_weight(size_t c) const noexcept {
+  const Plane& p = planes_[c];
+  if (!(p.total > 0.0)) return 0.0;
+  return std::clamp(p.fast / p.total, 0.0, 1.0);
+}
+
+void BoneFit::learn_plane(Plane& p, const Pose& answer, const std::array<int, 4>& chain, bool step, double a) noexcept {
+  double s = 0.0;
+  if (!tip_plane_offset(chain_points(answer, chain), s, nullptr)) {
+    p.has_last = false;  // no plane this row: the next one measures no step
+    return;
+  }
+  const double share = std::max(a, 1.0 / double(++p.seen));
+  if (!p.known) {
+    p.offset = s;
+    p.known = true;
+  } else {
+    const double d = s - p.offset;
+    p.total += share * (std::min(d * d, kBoneVarCapM2) - p.total);
+    if (step && p.has_last) {
+      const double st = s - p.last;
+      p.fast += std::max(a, 1.0 / double(++p.steps)) * (std::min(0.5 * st * st, kBoneVarCapM2) - p.fast);
+    }
+    p.offset += share * std::clamp(d, -kBoneClipM, kBoneClipM);
+  }
+  p.has_last = step || !p.has_last;
+  p.last = s;
 }
 
 double BoneFit::weight(size_t c, size_t b) const noexcept {
@@ -56,6 +118,7 @@ void BoneFit::learn(double t, const Pose& answer) noexcept {
     const auto& chain = kFingerChains[c];
     if (!have[c]) {
       for (Bone& b : bones_[c]) b.last = 0.0;
+      planes_[c].has_last = false;
       continue;
     }
     for (size_t i = 0; i < 3; ++i) {
@@ -80,6 +143,7 @@ void BoneFit::learn(double t, const Pose& answer) noexcept {
       if (step || b.last == 0.0) b.last = len;
       else b.last = 0.0;
     }
+    learn_plane(planes_[c], answer, chain, step, a);
   }
   last_t_ = t;
   ++rows_;
@@ -88,56 +152,77 @@ void BoneFit::learn(double t, const Pose& answer) noexcept {
 
 void BoneFit::apply(Pose& pose, const JointMask* observed) const noexcept {
   if (take_rows_ < kBoneMinRows) return;
+  using M49 = Eigen::Matrix<double, 4, 9>;
+  using V9 = Eigen::Matrix<double, 9, 1>;
   for (size_t c = 0; c < kFingerChains.size(); ++c) {
     const auto& chain = kFingerChains[c];
     if (!chain_finite(pose, chain)) continue;
     // How readily each joint moves (the inverse of its weight in the least squares): a
     // joint the method filled in (missing from its input) gives way first.
-    std::array<double, 4> give{};
+    V9 give;
     for (size_t k = 1; k < 4; ++k)
-      give[k] = observed && !(*observed)[size_t(chain[k])] ? kBoneFilledGive : 1.0;
-    std::array<V3, 4> y, x;
-    for (size_t i = 0; i < 4; ++i) y[i] = x[i] = joint(pose, chain[i]);
-    // Each bone's target: its length now moved towards the learnt one by its weight.
-    std::array<double, 3> target{};
+      give.segment<3>(Eigen::Index(3 * (k - 1))).setConstant(observed && !(*observed)[size_t(chain[k])] ? kBoneFilledGive : 1.0);
+    const std::array<V3, 4> y = chain_points(pose, chain);
+    std::array<V3, 4> x = y;
+    // Each bone's target: its length now moved towards the learnt one by its weight; the
+    // tip's offset from the finger's plane likewise.
+    Eigen::Vector4d target = Eigen::Vector4d::Zero();
     bool any = false;
     for (size_t i = 0; i < 3; ++i) {
       const double now = (y[i + 1] - y[i]).norm();
       const double w = weight(c, i);  // 0 for a bone not yet seen (no variance learnt)
-      target[i] = now + w * (bones_[c][i].length - now);
+      target[Eigen::Index(i)] = now + w * (bones_[c][i].length - now);
       any = any || w > 0.0;
     }
-    if (!any) continue;
+    const double wp = plane_weight(c);
+    double s_now = 0.0;
+    const bool plane = wp > 0.0 && tip_plane_offset(y, s_now, nullptr);
+    if (plane) target[3] = s_now + wp * (planes_[c].offset - s_now);
+    if (!any && !plane) continue;
+    V9 yv;
+    for (size_t k = 1; k < 4; ++k) yv.segment<3>(Eigen::Index(3 * (k - 1))) = y[k];
     bool ok = true;
     for (int it = 0; it < kBoneIterations && ok; ++it) {
-      // Constraint i: u_i . (x_{i+1} - x_i) = target_i, u_i the bone's direction at the last
-      // step; the root x_0 is fixed. x = y - D A^T (A D A^T)^-1 (A y - target), D = diag(give).
-      std::array<V3, 3> u;
+      // Rows 0-2, bone i: u_i . (x_{i+1} - x_i) = target_i, u_i the bone's direction at the
+      // last step; row 3: the plane offset linearised at the last step. The root x_0 is
+      // fixed. x = y - D A^T (A D A^T)^-1 (A y - b), D = diag(give).
+      M49 A = M49::Zero();
+      Eigen::Vector4d b = target;
       for (size_t i = 0; i < 3; ++i) {
         const V3 d = x[i + 1] - x[i];
         const double n = d.norm();
-        if (!(n > 1e-9)) ok = false;
-        u[i] = ok ? V3(d / n) : V3::Zero();
+        if (!(n > 1e-9)) {
+          ok = false;
+          break;
+        }
+        const V3 u = d / n;
+        A.block<1, 3>(Eigen::Index(i), Eigen::Index(3 * i)) = u.transpose();
+        if (i >= 1) A.block<1, 3>(Eigen::Index(i), Eigen::Index(3 * (i - 1))) = -u.transpose();
+        b[Eigen::Index(i)] += i >= 1 ? 0.0 : u.dot(x[0]);  // the fixed root's share
       }
       if (!ok) break;
-      // A D A^T: constraint i holds x_{i+1} (+u_i) and x_i (-u_i, i >= 1).
-      Eigen::Matrix3d m;
-      const double c01 = -give[1] * u[0].dot(u[1]), c12 = -give[2] * u[1].dot(u[2]);
-      m << give[1], c01, 0.0,
-           c01, give[1] + give[2], c12,
-           0.0, c12, give[2] + give[3];
-      Eigen::Vector3d g;
-      for (int i = 0; i < 3; ++i) g[i] = u[size_t(i)].dot(y[size_t(i) + 1] - y[size_t(i)]) - target[size_t(i)];
-      const Eigen::Vector3d lambda = m.ldlt().solve(g);
+      std::array<V3, 3> grad;
+      double s = 0.0;
+      const bool row3 = plane && tip_plane_offset(x, s, &grad);
+      V9 xv;
+      for (size_t k = 1; k < 4; ++k) xv.segment<3>(Eigen::Index(3 * (k - 1))) = x[k];
+      if (row3) {
+        for (size_t k = 0; k < 3; ++k) A.block<1, 3>(3, Eigen::Index(3 * k)) = grad[k].transpose();
+        b[3] = target[3] - s + A.row(3).dot(xv);
+      }
+      Eigen::Matrix4d m = A * give.asDiagonal() * A.transpose();
+      Eigen::Vector4d g = A * yv - b;
+      if (!row3) {
+        m(3, 3) = 1.0;
+        g[3] = 0.0;
+      }
+      const Eigen::Vector4d lambda = m.ldlt().solve(g);
       if (!lambda.allFinite()) {
         ok = false;
         break;
       }
-      for (size_t k = 1; k < 4; ++k) {
-        V3 push = lambda[Eigen::Index(k - 1)] * u[k - 1];
-        if (k < 3) push -= lambda[Eigen::Index(k)] * u[k];
-        x[k] = y[k] - give[k] * push;
-      }
+      const V9 nx = yv - give.asDiagonal() * (A.transpose() * lambda);
+      for (size_t k = 1; k < 4; ++k) x[k] = nx.segment<3>(Eigen::Index(3 * (k - 1)));
     }
     if (!ok) continue;
     for (size_t i = 1; i < 4; ++i) pose.row(chain[i]) = x[i].transpose();

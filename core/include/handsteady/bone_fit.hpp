@@ -38,6 +38,7 @@ inline constexpr int kBoneIterations = 2;     // linearised least-squares steps 
 inline constexpr double kBoneStepGapS = 0.1;  // rows further apart do not measure a step
 inline constexpr double kBoneVarCapM2 = 1e-4; // a row adds at most (10 mm)^2 to a variance (an outlier's)
 inline constexpr double kBoneFilledGive = 10.0; // a joint the method filled in moves this many times as readily
+inline constexpr double kPlaneMinSin = 0.25;    // a chain bent less than this (sine of its middle joint's angle) has no plane
 
 // Which joints the method's last input row had (apply() moves the others first).
 using JointMask = std::array<bool, kJointCount>;
@@ -63,8 +64,23 @@ class BoneFit {
   // Bone b (0-2) of chain c: its learnt length (m) and its weight in [0, 1].
   double length(size_t c, size_t b) const noexcept { return bones_[c][b].length; }
   double weight(size_t c, size_t b) const noexcept;
+  // Chain c's learnt offset of its tip from the plane of its first three joints (m), and its weight.
+  double plane_offset(size_t c) const noexcept { return planes_[c].offset; }
+  double plane_weight(size_t c) const noexcept;
 
  private:
+  struct Plane {
+    double offset = 0.0;  // running mean (m)
+    double total = 0.0;
+    double fast = 0.0;
+    double last = 0.0;
+    bool known = false;
+    bool has_last = false;
+    int seen = 0;
+    int steps = 0;
+  };
+  static void learn_plane(Plane& p, const Pose& answer, const std::array<int, 4>& chain, bool step, double a) noexcept;
+  std::array<Plane, kFingerChains.size()> planes_{};
   struct Bone {
     double length = 0.0;  // running mean (m); 0: not seen
     double total = 0.0;   // running mean of (length now - length)^2
