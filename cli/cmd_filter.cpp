@@ -54,7 +54,7 @@ struct FilterOptions {
   bool palm_fit = false;     // fit the hand's rigid palm to each input row first (any method)
   bool no_palm_fit = false;  // ... not even for a network method (where it is the default)
   bool tremor_cancel = false;  // cancel quasi-periodic tremor in each input row first (any method)
-  bool bone_fit = false;     // move each answer's finger joints towards the learnt bone lengths (any method)
+  bool bone_fit = false;     // move each answer's finger joints towards the learnt bone lengths and planes (any method)
   bool no_bone_fit = false;  // ... not even for a network method (where it is the default)
 };
 
@@ -249,8 +249,8 @@ void setup_filter(CLI::App& app) {
                 "filtering (docs/FILTERS.md \"Palm fit\"; the default for stgae and dgn streaming)");
   sub->add_flag("--no-palm-fit", o->no_palm_fit, "stgae, dgn: without the palm fit (for comparison)");
   sub->add_flag("--bone-fit", o->bone_fit,
-                "Any method: move each answer's finger joints towards the bone lengths learnt from the method's "
-                "answers (docs/FILTERS.md \"Bone fit\"; the default for stgae and dgn streaming)");
+                "Any method: move each answer's finger joints towards the bone lengths and finger planes learnt from "
+                "the method's answers (docs/FILTERS.md \"Bone fit\"; the default for stgae and dgn streaming)");
   sub->add_flag("--no-bone-fit", o->no_bone_fit, "stgae, dgn: without the bone fit (for comparison)");
   sub->add_flag("--tremor-cancel", o->tremor_cancel,
                 "Cancel quasi-periodic tremor (3.5-12.5 Hz) in each input row before the method, behind the palm fit "

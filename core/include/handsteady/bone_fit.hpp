@@ -10,8 +10,13 @@
 // lengths (apply()). How far: each bone's Wiener weight, the share of its length's
 // deviation that is fast (the step-to-step variance over the total), so a tracker whose
 // bones really change length (FPHA's mocap: 2-4 mm over a recording, slowly) is moved
-// little and a rigid skeleton's bones all the way. Chains with a missing joint are left
-// alone; nothing changes before kBoneMinRows answers of a take. Other joints are never touched.
+// little and a rigid skeleton's bones all the way. The same least squares holds each
+// fingertip to its finger's hinge plane (the plane of the chain's first three joints: a
+// finger's two outer joints bend in one plane) at an offset learnt the same way, with its
+// own Wiener weight (a tracker whose tips sit off that plane by a fixed distance keeps
+// it); a chain bent less than kPlaneMinSin has no plane that row. Chains with a missing
+// joint are left alone; nothing changes before kBoneMinRows answers of a take. Other
+// joints are never touched.
 // noexcept, no allocation. make_filter puts it behind the network methods by default
 // (FilterConfig::bone_fit). docs/FILTERS.md "Bone fit".
 #include "handsteady/skeleton.hpp"
@@ -38,7 +43,7 @@ inline constexpr int kBoneIterations = 2;     // linearised least-squares steps 
 inline constexpr double kBoneStepGapS = 0.1;  // rows further apart do not measure a step
 inline constexpr double kBoneVarCapM2 = 1e-4; // a row adds at most (10 mm)^2 to a variance (an outlier's)
 inline constexpr double kBoneFilledGive = 10.0; // a joint the method filled in moves this many times as readily
-inline constexpr double kPlaneMinSin = 0.25;    // a chain bent less than this (sine of its middle joint's angle) has no plane
+inline constexpr double kPlaneMinSin = 0.25;    // a chain whose first two bones are nearer a line (sine of their angle) has no plane
 
 // Which joints the method's last input row had (apply() moves the others first).
 using JointMask = std::array<bool, kJointCount>;
@@ -69,13 +74,14 @@ class BoneFit {
   double plane_weight(size_t c) const noexcept;
 
  private:
+  // The tip's signed offset from its chain's plane: the same running means as a bone's.
   struct Plane {
-    double offset = 0.0;  // running mean (m)
-    double total = 0.0;
-    double fast = 0.0;
-    double last = 0.0;
-    bool known = false;
-    bool has_last = false;
+    double offset = 0.0;     // running mean (m)
+    double total = 0.0;      // running mean of (offset now - offset)^2
+    double fast = 0.0;       // running mean of half the squared step between answers
+    double last = 0.0;       // the last answer's offset (when has_last)
+    bool known = false;      // offset set (kept over a take, as a bone's length is, and relearnt)
+    bool has_last = false;   // last is a base for the next step
     int seen = 0;
     int steps = 0;
   };
