@@ -119,7 +119,7 @@ TEST_CASE("Bone fit: white noise along rigid finger bones is taken out in the sa
   }
 }
 
-TEST_CASE("Bone fit: noise across a finger's plane is taken out; tips that sit off it by a fixed distance keep it") {
+TEST_CASE("Bone fit: noise across a finger's plane is taken out, and tips that sit off it by a fixed distance keep it") {
   const hs::HandSeries truth = moving_hand(8.0);
   const std::array<double, 5> off_mm = {2.0, -3.0, 1.5, 4.0, -2.5};
   std::mt19937_64 rng(12);
