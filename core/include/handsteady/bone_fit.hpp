@@ -10,11 +10,13 @@
 // lengths (apply()). How far: each bone's Wiener weight, the share of its length's
 // deviation that is fast (the step-to-step variance over the total), so a tracker whose
 // bones really change length (FPHA's mocap: 2-4 mm over a recording, slowly) is moved
-// little and a rigid skeleton's bones all the way. The same least squares holds each
-// fingertip to its finger's hinge plane (the plane of the chain's first three joints: a
-// finger's two outer joints bend in one plane) at an offset learnt the same way, with its
-// own Wiener weight (a tracker whose tips sit off that plane by a fixed distance keeps
-// it); a chain bent less than kPlaneMinSin has no plane that row. Chains with a missing
+// little and a rigid skeleton's bones all the way. The same least squares turns each
+// finger's hinge plane (the plane of the chain's first three joints: a finger's two outer
+// joints bend in one plane) by moving its intermediate and distal joints, never the tip,
+// until the tip sits at an offset from it learnt the same way, with its own Wiener weight
+// (a tracker whose tips sit off that plane by a fixed distance keeps it); its pull fades
+// in with the chain's bend (kPlaneFadeSin), and a chain bent less than kPlaneMinSin
+// teaches none. Chains with a missing
 // joint are left alone; nothing changes before kBoneMinRows answers of a take. Other
 // joints are never touched.
 // noexcept, no allocation. make_filter puts it behind the network methods by default
@@ -43,7 +45,8 @@ inline constexpr int kBoneIterations = 2;     // linearised least-squares steps 
 inline constexpr double kBoneStepGapS = 0.1;  // rows further apart do not measure a step
 inline constexpr double kBoneVarCapM2 = 1e-4; // a row adds at most (10 mm)^2 to a variance (an outlier's)
 inline constexpr double kBoneFilledGive = 10.0; // a joint the method filled in moves this many times as readily
-inline constexpr double kPlaneMinSin = 0.25;    // a chain whose first two bones are nearer a line (sine of their angle) has no plane
+inline constexpr double kPlaneMinSin = 0.25;    // a chain whose first two bones are nearer a line (sine of their angle) teaches no plane
+inline constexpr std::array<double, 2> kPlaneFadeSin = {0.15, 0.35};  // the plane's pull fades in over this bend (sine)
 
 // Which joints the method's last input row had (apply() moves the others first).
 using JointMask = std::array<bool, kJointCount>;
