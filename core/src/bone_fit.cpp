@@ -58,51 +58,43 @@ void BoneFit::reset() noexcept {
 }
 
 void BoneFit::resume() noexcept {
+  // The take's first answers set the means anew (a tracker may re-measure the hand).
   for (auto& chain : bones_)
-    for (Bone& b : chain) {
-      b.last = 0.0;
-      b.seen = 0;  // the take's first answers set the lengths anew (a tracker may re-measure the hand)
+    for (Stat& b : chain) {
+      b.has_last = false;
+      b.seen = 0;
     }
-  for (Plane& p : planes_) {
+  for (Stat& p : planes_) {
     p.has_last = false;
     p.seen = 0;
   }
   take_rows_ = 0;
 }
 
-double BoneFit::plane_weight(size_t c) const noexcept {
-  const Plane& p = planes_[c];
-  if (!(p.total > 0.0)) return 0.0;
-  return std::clamp(p.fast / p.total, 0.0, 1.0);
-}
-
-void BoneFit::learn_plane(Plane& p, const Pose& answer, const std::array<int, 4>& chain, bool step, double a) noexcept {
-  double s = 0.0;
-  if (!tip_plane_offset(chain_points(answer, chain), s, nullptr)) {
-    p.has_last = false;  // no plane this row: the next one measures no step
-    return;
-  }
-  const double share = std::max(a, 1.0 / double(++p.seen));
-  if (!p.known) {
-    p.offset = s;
-    p.known = true;
+void BoneFit::Stat::learn(double v, bool step, double a) noexcept {
+  // The running means start as plain means over the first answers.
+  const double share = std::max(a, 1.0 / double(++seen));
+  if (!known) {
+    mean = v;
+    known = true;
   } else {
-    const double d = s - p.offset;
-    p.total += share * (std::min(d * d, kBoneVarCapM2) - p.total);
-    if (step && p.has_last) {
-      const double st = s - p.last;
-      p.fast += std::max(a, 1.0 / double(++p.steps)) * (std::min(0.5 * st * st, kBoneVarCapM2) - p.fast);
+    const double d = v - mean;
+    total += share * (std::min(d * d, kBoneVarCapM2) - total);
+    if (step && has_last) {
+      const double st = v - last;
+      fast += std::max(a, 1.0 / double(++steps)) * (std::min(0.5 * st * st, kBoneVarCapM2) - fast);
     }
-    p.offset += share * std::clamp(d, -kBoneClipM, kBoneClipM);
+    mean += share * std::clamp(d, -kBoneClipM, kBoneClipM);
   }
-  p.has_last = step || !p.has_last;
-  p.last = s;
+  // The base of the next step; a row after a pause (over kBoneStepGapS, not long enough
+  // for a take) measures no step and is no base either: the row after it starts anew.
+  has_last = step || !has_last;
+  last = v;
 }
 
-double BoneFit::weight(size_t c, size_t b) const noexcept {
-  const Bone& bone = bones_[c][b];
-  if (!(bone.total > 0.0)) return 0.0;
-  return std::clamp(bone.fast / bone.total, 0.0, 1.0);
+double BoneFit::Stat::weight() const noexcept {
+  if (!(total > 0.0)) return 0.0;
+  return std::clamp(fast / total, 0.0, 1.0);
 }
 
 void BoneFit::learn(double t, const Pose& answer) noexcept {
@@ -119,33 +111,17 @@ void BoneFit::learn(double t, const Pose& answer) noexcept {
   for (size_t c = 0; c < kFingerChains.size(); ++c) {
     const auto& chain = kFingerChains[c];
     if (!have[c]) {
-      for (Bone& b : bones_[c]) b.last = 0.0;
+      for (Stat& b : bones_[c]) b.has_last = false;
       planes_[c].has_last = false;
       continue;
     }
     for (size_t i = 0; i < 3; ++i) {
-      Bone& b = bones_[c][i];
       const double len = (joint(answer, chain[i + 1]) - joint(answer, chain[i])).norm();
-      if (!std::isfinite(len) || len <= 0.0) continue;
-      // The running means start as plain means over the bone's first answers.
-      const double share = std::max(a, 1.0 / double(++b.seen));
-      if (b.length == 0.0) {
-        b.length = len;
-      } else {
-        const double d = len - b.length;
-        b.total += share * (std::min(d * d, kBoneVarCapM2) - b.total);
-        if (step && b.last > 0.0) {
-          const double s = len - b.last;
-          b.fast += std::max(a, 1.0 / double(++b.steps)) * (std::min(0.5 * s * s, kBoneVarCapM2) - b.fast);
-        }
-        b.length += share * std::clamp(d, -kBoneClipM, kBoneClipM);
-      }
-      // The base of the next step; a row after a pause (over kBoneStepGapS, not long enough
-      // for a take) measures no step and is no base either: the row after it starts anew.
-      if (step || b.last == 0.0) b.last = len;
-      else b.last = 0.0;
+      if (std::isfinite(len) && len > 0.0) bones_[c][i].learn(len, step, a);
     }
-    learn_plane(planes_[c], answer, chain, step, a);
+    double s = 0.0;
+    if (tip_plane_offset(chain_points(answer, chain), s, nullptr)) planes_[c].learn(s, step, a);
+    else planes_[c].has_last = false;  // no plane this row: the next one measures no step
   }
   last_t_ = t;
   ++rows_;
@@ -173,7 +149,7 @@ void BoneFit::apply(Pose& pose, const JointMask* observed) const noexcept {
     for (size_t i = 0; i < 3; ++i) {
       const double now = (y[i + 1] - y[i]).norm();
       const double w = weight(c, i);  // 0 for a bone not yet seen (no variance learnt)
-      target[Eigen::Index(i)] = now + w * (bones_[c][i].length - now);
+      target[Eigen::Index(i)] = now + w * (bones_[c][i].mean - now);
       any = any || w > 0.0;
     }
     // The plane's pull fades in with the chain's bend (kPlaneFadeSin), so a finger bent
@@ -183,7 +159,7 @@ void BoneFit::apply(Pose& pose, const JointMask* observed) const noexcept {
     const bool plane = wp > 0.0 && tip_plane_offset(y, s_now, nullptr, kPlaneFadeSin[0], &sine);
     if (plane) {
       const double fade = std::clamp((sine - kPlaneFadeSin[0]) / (kPlaneFadeSin[1] - kPlaneFadeSin[0]), 0.0, 1.0);
-      target[3] = s_now + fade * wp * (planes_[c].offset - s_now);
+      target[3] = s_now + fade * wp * (planes_[c].mean - s_now);
     }
     if (!any && !plane) continue;
     V9 yv;

@@ -70,35 +70,33 @@ class BoneFit {
   // Answers learnt from since reset().
   int rows() const noexcept { return rows_; }
   // Bone b (0-2) of chain c: its learnt length (m) and its weight in [0, 1].
-  double length(size_t c, size_t b) const noexcept { return bones_[c][b].length; }
-  double weight(size_t c, size_t b) const noexcept;
+  double length(size_t c, size_t b) const noexcept { return bones_[c][b].mean; }
+  double weight(size_t c, size_t b) const noexcept { return bones_[c][b].weight(); }
   // Chain c's learnt offset of its tip from the plane of its first three joints (m), and its weight.
-  double plane_offset(size_t c) const noexcept { return planes_[c].offset; }
-  double plane_weight(size_t c) const noexcept;
+  double plane_offset(size_t c) const noexcept { return planes_[c].mean; }
+  double plane_weight(size_t c) const noexcept { return planes_[c].weight(); }
 
  private:
-  // The tip's signed offset from its chain's plane: the same running means as a bone's.
-  struct Plane {
-    double offset = 0.0;     // running mean (m)
-    double total = 0.0;      // running mean of (offset now - offset)^2
-    double fast = 0.0;       // running mean of half the squared step between answers
-    double last = 0.0;       // the last answer's offset (when has_last)
-    bool known = false;      // offset set (kept over a take, as a bone's length is, and relearnt)
-    bool has_last = false;   // last is a base for the next step
-    int seen = 0;
-    int steps = 0;
+  // What is learnt of one quantity a rigid hand keeps (a bone's length, a tip's offset
+  // from its finger's plane): its running mean and two running variances, the deviation
+  // from that mean (total) and half the squared step between answers (fast).
+  struct Stat {
+    double mean = 0.0;
+    double total = 0.0;
+    double fast = 0.0;
+    double last = 0.0;      // the last answer's value (when has_last)
+    bool known = false;     // mean set (kept over a take, and relearnt from its first answers)
+    bool has_last = false;  // last is a base for the next step
+    int seen = 0;           // answers learnt from (the means are plain means at first)
+    int steps = 0;          // steps learnt from
+    // Learns value v; step: the answer before is close enough for a step; a: the share
+    // of the running means a row moves.
+    void learn(double v, bool step, double a) noexcept;
+    // The Wiener weight in [0, 1]: fast over total (0 before any variance is learnt).
+    double weight() const noexcept;
   };
-  static void learn_plane(Plane& p, const Pose& answer, const std::array<int, 4>& chain, bool step, double a) noexcept;
-  std::array<Plane, kFingerChains.size()> planes_{};
-  struct Bone {
-    double length = 0.0;  // running mean (m); 0: not seen
-    double total = 0.0;   // running mean of (length now - length)^2
-    double fast = 0.0;    // running mean of half the squared step between answers
-    double last = 0.0;    // the last answer's length; 0: none to step from
-    int seen = 0;         // answers learnt from (the means are plain means at first)
-    int steps = 0;        // steps learnt from
-  };
-  std::array<std::array<Bone, 3>, kFingerChains.size()> bones_{};
+  std::array<std::array<Stat, 3>, kFingerChains.size()> bones_{};
+  std::array<Stat, kFingerChains.size()> planes_{};
   double last_t_ = 0.0;
   int rows_ = 0;
   int take_rows_ = 0;  // answers learnt from since the take began
