@@ -43,6 +43,8 @@ void InputNoise::reset() noexcept {
   bone_n_.fill(0);
   taint_.fill(0);
   held_.fill(0);
+  moved_.fill(0);
+  follow_.fill(0);
 }
 
 void InputNoise::push(double t, std::span<const float> x) noexcept {
@@ -70,13 +72,31 @@ void InputNoise::push(double t, std::span<const float> x) noexcept {
         finite_xyz(rows_[2].data() + o))
       res[ju] = at(xj) - l[0] * at(rows_[0].data() + o) - l[1] * at(rows_[1].data() + o) - l[2] * at(rows_[2].data() + o);
   }
+  // Which joints' bones stretched in this row (either end): an outlier moves one joint off
+  // its bones, a hand's motion, and a tracker's own flip of a finger, keep their lengths.
+  std::array<bool, kJointCount> strained{};
+  for (size_t ju = 0; ju < kJointCount; ++ju) {
+    const int parent = kXrParent[ju];
+    if (parent < 0) continue;
+    const auto pu = static_cast<size_t>(parent);
+    const float* xj = x.data() + 3 * ju;
+    const float* xp = x.data() + 3 * pu;
+    if (!finite_xyz(xj) || !finite_xyz(xp) || bone_n_[ju] < kInputNoiseWarmRows) {
+      strained[ju] = strained[pu] = true;  // no evidence: the residual decides alone
+      continue;
+    }
+    const double d = (at(xj) - at(xp)).norm() - bone_mean_[ju];
+    const double spread2 = std::max(bone_var_[ju], kInputNoiseStretchFloor * kInputNoiseStretchFloor);
+    if (d * d > kInputNoiseStretch * kInputNoiseStretch * spread2) strained[ju] = strained[pu] = true;
+  }
   // Smoothness, and which rows are jumps, parents first. A jump's residual, and those of the
   // kQuadRows rows after it (their quadratic runs through it), are held out of the mean:
   // one outlier would otherwise raise the measured noise for the next 30 rows, and with it
   // the bar the next outlier must clear. Held out for more than kInputNoiseHeldRows rows in
   // a row, they are no outliers but a noise that rose, and count (clipped).
   constexpr int kQuadRows = 3;
-  std::array<bool, kJointCount> out{};  // this row is a jump held out (its bones too)
+  std::array<bool, kJointCount> out{};     // this row is a jump held out (its bones too)
+  std::array<bool, kJointCount> jumped_now{};  // off the quadratic, stretched or not
   const double bar2 = kInputNoiseJump * kInputNoiseJump * gain2;  // the jump bar over E|n|^2
   for (const int j : kXrParentFirst) {
     const auto ju = static_cast<size_t>(j);
@@ -89,11 +109,28 @@ void InputNoise::push(double t, std::span<const float> x) noexcept {
     // whole finger's, an outlier one joint's. A reference that shares little of it (say
     // white noise next to an outlier) leaves the question to the joint's own residual.
     const auto ru = static_cast<size_t>(kJumpReference[ju]);
-    if (jumped && res[ru].allFinite() && jump_[ru] == 0.0 && res[ru].dot(res[ju]) > kInputNoiseShared * r2)
+    if (jumped && res[ru].allFinite() && !jumped_now[ru] && res[ru].dot(res[ju]) > kInputNoiseShared * r2)
       jumped = (res[ju] - res[ru]).squaredNorm() > bar2 * (noise2_[ju] + noise2_[ru]);
     const bool suspect = jumped || taint_[ju] > 0;
     taint_[ju] = jumped ? kQuadRows : std::max(taint_[ju] - 1, 0);
-    if (jumped) jump_[ju] = std::sqrt(r2);
+    jumped_now[ju] = jumped;
+    // A jump that kept its bones and that the next row stays at (nearer where it jumped
+    // to than where it came from) is the tracker's new answer: reported on its first row
+    // only, then followed while the quadratic still runs through it.
+    const float* xj = x.data() + 3 * ju;
+    if (moved_[ju] == 1 && finite_xyz(xj) && !strained[ju] &&
+        (at(xj) - jump_to_[ju]).squaredNorm() < (at(xj) - jump_from_[ju]).squaredNorm())
+      follow_[ju] = kQuadRows;
+    else if (follow_[ju] > 0 && (strained[ju] || !jumped))
+      follow_[ju] = 0;
+    moved_[ju] = 0;
+    if (jumped && !strained[ju] && follow_[ju] == 0) {
+      moved_[ju] = 1;
+      jump_from_[ju] = at(rows_[0].data() + 3 * ju);
+      jump_to_[ju] = at(xj);
+    }
+    if (jumped && (strained[ju] || follow_[ju] == 0)) jump_[ju] = std::sqrt(r2);
+    if (follow_[ju] > 0) --follow_[ju];
     if (suspect && held_[ju] < kInputNoiseHeldRows) {
       ++held_[ju];
       out[ju] = jumped;
@@ -103,6 +140,16 @@ void InputNoise::push(double t, std::span<const float> x) noexcept {
     const double sample = std::min(r2 / gain2, clip_bound2(smooth2_[ju], smooth_n_[ju]));
     smooth2_[ju] += running_weight(smooth_n_[ju], kInputNoiseRows) * (sample - smooth2_[ju]);
   }
+  // A rigid move is a chain's: a candidate whose parent and children all stayed is one
+  // joint off on its own (an outlier that happened to keep its bone's length).
+  std::array<bool, kJointCount> paired{};
+  for (size_t ju = 0; ju < kJointCount; ++ju) {
+    const int parent = kXrParent[ju];
+    if (parent < 0 || moved_[ju] != 1 || moved_[static_cast<size_t>(parent)] != 1) continue;
+    paired[ju] = paired[static_cast<size_t>(parent)] = true;
+  }
+  for (size_t ju = 0; ju < kJointCount; ++ju)
+    if (!paired[ju]) moved_[ju] = 0;
   // Rigidity: each bone's length against its running mean, but not in a row where either
   // end is a jump held out above.
   for (size_t ju = 0; ju < kJointCount; ++ju) {

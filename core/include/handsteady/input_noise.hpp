@@ -9,9 +9,12 @@
 //   however it moves, noise on either end of a bone does, correlated or not.
 // The estimate is the larger of the two: E|n|^2 of the joint, m^2. A row far off the
 // quadratic is a jump (an outlier), held out of both with the rows it spoils, unless the
-// joint moved with its parent: fast motion moves a finger, an outlier one joint. Per hand,
+// joint moved with its parent: fast motion moves a finger, an outlier one joint; a jump
+// that keeps the bones and stays is followed from its second row. Per hand,
 // per input row, no allocation, noexcept. docs/STGAE.md "Trust region".
 #include "handsteady/skeleton.hpp"
+
+#include <Eigen/Core>
 
 #include <array>
 #include <span>
@@ -30,6 +33,16 @@ inline constexpr double kInputNoiseJump = 2.0;
 // projected on the joint's, over the joint's), the joint is a jump only if its residual less
 // the reference's exceeds kInputNoiseJump RMS of the two joints' noise.
 inline constexpr double kInputNoiseShared = 0.5;
+// A jump that kept the joint's bones (none changed length by more than this many RMS of
+// its spread, at least kInputNoiseStretchFloor) and that the next row stays at (nearer
+// where it jumped to than where it came from) is the tracker's new answer, not an
+// outlier: Leap Motion re-fits a thumb 50 mm away between two rows and keeps it there.
+// It is reported on its first row (a one-row shift that keeps the bones, the papers'
+// corruption, looks the same), not on the rows after, whose quadratic runs through it:
+// the trust region then lets the answer follow. An outlier stretches its bones and stays
+// one. Either way the rows are held out of the means.
+inline constexpr double kInputNoiseStretch = 3.0;
+inline constexpr double kInputNoiseStretchFloor = 1e-3;  // m
 // A sample enters the running means only up to this many RMS of the mean it enters, so one
 // outlier does not inflate the noise of the next 30 rows (after kInputNoiseWarmRows
 // samples; before them everything counts).
@@ -50,8 +63,8 @@ class InputNoise {
   double noise2(int j) const noexcept { return noise2_[static_cast<size_t>(j)]; }
   // |row - the quadratic through the rows before| of joint j at the last row (m) where it
   // exceeds kInputNoiseJump times what the noise measured before this row explains: a
-  // jump of this row alone (an outlier). 0 otherwise, and when the joint lacked three rows
-  // before.
+  // jump of this row alone (an outlier). 0 otherwise, when the joint lacked three rows
+  // before, and on the rows after a jump that kept its bones and stayed (see above).
   double jump(int j) const noexcept { return jump_[static_cast<size_t>(j)]; }
   // Both for every joint (what CorrectionBound::apply takes).
   std::span<const double> noise2() const noexcept { return noise2_; }
@@ -66,6 +79,10 @@ class InputNoise {
   std::array<int, kJointCount> smooth_n_{}, bone_n_{};
   std::array<int, kJointCount> taint_{};  // rows still to come whose quadratic runs through a jump
   std::array<int, kJointCount> held_{};   // residuals held out in a row
+  // A jump that kept its bones, awaiting the next row (moved_ 1), and where it went from
+  // and to; follow_: rows still to come in which the jump it made is followed.
+  std::array<int, kJointCount> moved_{}, follow_{};
+  std::array<Eigen::Vector3d, kJointCount> jump_from_{}, jump_to_{};
 };
 
 }  // namespace hs
