@@ -72,8 +72,11 @@ void InputNoise::push(double t, std::span<const float> x) noexcept {
         finite_xyz(rows_[2].data() + o))
       res[ju] = at(xj) - l[0] * at(rows_[0].data() + o) - l[1] * at(rows_[1].data() + o) - l[2] * at(rows_[2].data() + o);
   }
-  // Which joints' bones stretched in this row (either end): an outlier moves one joint off
-  // its bones, a hand's motion, and a tracker's own flip of a finger, keep their lengths.
+  // Each bone's length in this row less its running mean (NaN: an end missing), and which
+  // joints' bones stretched (either end): an outlier moves one joint off its bones, a
+  // hand's motion, and a tracker's own flip of a finger, keep their lengths.
+  std::array<double, kJointCount> stretch;
+  stretch.fill(std::numeric_limits<double>::quiet_NaN());
   std::array<bool, kJointCount> strained{};
   for (size_t ju = 0; ju < kJointCount; ++ju) {
     const int parent = kXrParent[ju];
@@ -81,13 +84,12 @@ void InputNoise::push(double t, std::span<const float> x) noexcept {
     const auto pu = static_cast<size_t>(parent);
     const float* xj = x.data() + 3 * ju;
     const float* xp = x.data() + 3 * pu;
-    if (!finite_xyz(xj) || !finite_xyz(xp) || bone_n_[ju] < kInputNoiseWarmRows) {
-      strained[ju] = strained[pu] = true;  // no evidence: the residual decides alone
-      continue;
-    }
-    const double d = (at(xj) - at(xp)).norm() - bone_mean_[ju];
+    if (finite_xyz(xj) && finite_xyz(xp)) stretch[ju] = (at(xj) - at(xp)).norm() - bone_mean_[ju];
+    const double d = stretch[ju];
     const double spread2 = std::max(bone_var_[ju], kInputNoiseStretchFloor * kInputNoiseStretchFloor);
-    if (d * d > kInputNoiseStretch * kInputNoiseStretch * spread2) strained[ju] = strained[pu] = true;
+    // Without a length learnt yet there is no evidence: the residual decides alone.
+    if (!std::isfinite(d) || bone_n_[ju] < kInputNoiseWarmRows || d * d > kInputNoiseStretch * kInputNoiseStretch * spread2)
+      strained[ju] = strained[pu] = true;
   }
   // Smoothness, and which rows are jumps, parents first. A jump's residual, and those of the
   // kQuadRows rows after it (their quadratic runs through it), are held out of the mean:
@@ -156,15 +158,12 @@ void InputNoise::push(double t, std::span<const float> x) noexcept {
     const int parent = kXrParent[ju];
     if (parent < 0) continue;
     const auto pu = static_cast<size_t>(parent);
-    const float* xj = x.data() + 3 * ju;
-    const float* xp = x.data() + 3 * pu;
-    if (!finite_xyz(xj) || !finite_xyz(xp) || out[ju] || out[pu]) continue;
-    const double len = (at(xj) - at(xp)).norm();
+    if (!std::isfinite(stretch[ju]) || out[ju] || out[pu]) continue;
     // The spread about the mean before this row (a mean that follows the sample would
     // hide it); the first row only starts the mean. The spread's sample and then the mean's
     // step are clipped alike (the spread has bone_n_ - 1 samples before this row): an
     // outlier's stretched bone moves neither much.
-    const double d = len - bone_mean_[ju];
+    const double d = stretch[ju];
     if (bone_n_[ju] > 0) {
       const double sample = std::min(d * d, clip_bound2(bone_var_[ju], bone_n_[ju] - 1));
       bone_var_[ju] += (1.0 / std::min<double>(bone_n_[ju], kInputNoiseRows)) * (sample - bone_var_[ju]);
