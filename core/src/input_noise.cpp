@@ -43,7 +43,7 @@ void InputNoise::reset() noexcept {
   bone_n_.fill(0);
   taint_.fill(0);
   held_.fill(0);
-  moved_.fill(0);
+  moved_.fill(false);
   follow_.fill(0);
 }
 
@@ -117,20 +117,16 @@ void InputNoise::push(double t, std::span<const float> x) noexcept {
     taint_[ju] = jumped ? kQuadRows : std::max(taint_[ju] - 1, 0);
     jumped_now[ju] = jumped;
     // A jump that kept its bones and that the next row stays at (nearer where it jumped
-    // to than where it came from) is the tracker's new answer: reported on its first row
-    // only, then followed while the quadratic still runs through it.
+    // to, the last row, than where it came from, the row before) is the tracker's new
+    // answer: reported on its first row only, then followed while the quadratic still runs
+    // through it.
     const float* xj = x.data() + 3 * ju;
-    if (moved_[ju] == 1 && finite_xyz(xj) && !strained[ju] &&
-        (at(xj) - jump_to_[ju]).squaredNorm() < (at(xj) - jump_from_[ju]).squaredNorm())
+    if (moved_[ju] && finite_xyz(xj) && !strained[ju] &&
+        (at(xj) - at(rows_[0].data() + 3 * ju)).squaredNorm() < (at(xj) - at(rows_[1].data() + 3 * ju)).squaredNorm())
       follow_[ju] = kQuadRows;
     else if (follow_[ju] > 0 && (strained[ju] || !jumped))
       follow_[ju] = 0;
-    moved_[ju] = 0;
-    if (jumped && !strained[ju] && follow_[ju] == 0) {
-      moved_[ju] = 1;
-      jump_from_[ju] = at(rows_[0].data() + 3 * ju);
-      jump_to_[ju] = at(xj);
-    }
+    moved_[ju] = jumped && !strained[ju] && follow_[ju] == 0;
     if (jumped && (strained[ju] || follow_[ju] == 0)) jump_[ju] = std::sqrt(r2);
     if (follow_[ju] > 0) --follow_[ju];
     if (suspect && held_[ju] < kInputNoiseHeldRows) {
@@ -147,11 +143,11 @@ void InputNoise::push(double t, std::span<const float> x) noexcept {
   std::array<bool, kJointCount> paired{};
   for (size_t ju = 0; ju < kJointCount; ++ju) {
     const int parent = kXrParent[ju];
-    if (parent < 0 || moved_[ju] != 1 || moved_[static_cast<size_t>(parent)] != 1) continue;
+    if (parent < 0 || !moved_[ju] || !moved_[static_cast<size_t>(parent)]) continue;
     paired[ju] = paired[static_cast<size_t>(parent)] = true;
   }
   for (size_t ju = 0; ju < kJointCount; ++ju)
-    if (!paired[ju]) moved_[ju] = 0;
+    if (!paired[ju]) moved_[ju] = false;
   // Rigidity: each bone's length against its running mean, but not in a row where either
   // end is a jump held out above.
   for (size_t ju = 0; ju < kJointCount; ++ju) {

@@ -14,8 +14,6 @@
 // per input row, no allocation, noexcept. docs/STGAE.md "Trust region".
 #include "handsteady/skeleton.hpp"
 
-#include <Eigen/Core>
-
 #include <array>
 #include <span>
 
@@ -79,10 +77,11 @@ class InputNoise {
   std::array<int, kJointCount> smooth_n_{}, bone_n_{};
   std::array<int, kJointCount> taint_{};  // rows still to come whose quadratic runs through a jump
   std::array<int, kJointCount> held_{};   // residuals held out in a row
-  // A jump that kept its bones, awaiting the next row (moved_ 1), and where it went from
-  // and to; follow_: rows still to come in which the jump it made is followed.
-  std::array<int, kJointCount> moved_{}, follow_{};
-  std::array<Eigen::Vector3d, kJointCount> jump_from_{}, jump_to_{};
+  // A jump that kept its bones in the last row, awaiting the next (where it went from and
+  // to are rows_[1] and rows_[0] then); rows still to come in which the jump it made is
+  // followed.
+  std::array<bool, kJointCount> moved_{};
+  std::array<int, kJointCount> follow_{};
 };
 
 }  // namespace hs
