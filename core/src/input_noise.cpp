@@ -45,6 +45,11 @@ void InputNoise::reset() noexcept {
   held_.fill(0);
   moved_.fill(false);
   follow_.fill(0);
+  before_smooth2_.fill(0.0);
+  before_n_.fill(0);
+  before_held_.fill(0);
+  verify_.fill(false);
+  aside_.fill(0);
 }
 
 void InputNoise::push(double t, std::span<const float> x) noexcept {
@@ -121,16 +126,42 @@ void InputNoise::push(double t, std::span<const float> x) noexcept {
     // answer: reported on its first row only, then followed while the quadratic still runs
     // through it.
     const float* xj = x.data() + 3 * ju;
-    if (moved_[ju] && finite_xyz(xj) && !strained[ju] &&
-        (at(xj) - at(rows_[0].data() + 3 * ju)).squaredNorm() < (at(xj) - at(rows_[1].data() + 3 * ju)).squaredNorm())
+    const bool refit = moved_[ju] && finite_xyz(xj) && !strained[ju] &&
+                       (at(xj) - at(rows_[0].data() + 3 * ju)).squaredNorm() < (at(xj) - at(rows_[1].data() + 3 * ju)).squaredNorm();
+    if (refit) {
       follow_[ju] = kQuadRows;
-    else if (follow_[ju] > 0 && (strained[ju] || !jumped))
+      verify_[ju] = true;
+    } else if (follow_[ju] > 0 && (strained[ju] || !jumped)) {
       follow_[ju] = 0;
-    moved_[ju] = jumped && !strained[ju] && follow_[ju] == 0;
+    }
+    // A re-fit that stayed a second row is the tracker's (the papers' shifts of two rows in
+    // a row come back): its rows were no noise that rose. Their samples leave the mean, and
+    // they and the rows it still spoils leave the run of held rows, which two re-fits close
+    // together made long enough to count (a thumb's noise then read 10-16 mm on a clean
+    // Leap recording, and the trust region let the network hold the old thumb for rows).
+    if (verify_[ju] && !refit) {
+      verify_[ju] = false;
+      if (finite_xyz(xj) && follow_[ju] > 0 &&
+          (at(xj) - at(rows_[0].data() + 3 * ju)).squaredNorm() < (at(xj) - at(rows_[2].data() + 3 * ju)).squaredNorm()) {
+        smooth2_[ju] = before_smooth2_[ju];
+        smooth_n_[ju] = before_n_[ju];
+        held_[ju] = before_held_[ju];
+        aside_[ju] = follow_[ju];
+      }
+    }
+    const bool may_refit = jumped && !strained[ju] && follow_[ju] == 0;
+    if (may_refit) {
+      before_smooth2_[ju] = smooth2_[ju];
+      before_n_[ju] = smooth_n_[ju];
+      before_held_[ju] = held_[ju];
+    }
+    moved_[ju] = may_refit;
     if (jumped && (strained[ju] || follow_[ju] == 0)) jump_[ju] = std::sqrt(r2);
     if (follow_[ju] > 0) --follow_[ju];
-    if (suspect && held_[ju] < kInputNoiseHeldRows) {
-      ++held_[ju];
+    const bool aside = aside_[ju] > 0;
+    if (aside) --aside_[ju];
+    if (suspect && (aside || held_[ju] < kInputNoiseHeldRows)) {
+      if (!aside) ++held_[ju];
       out[ju] = jumped;
       continue;
     }

@@ -47,7 +47,9 @@ inline constexpr double kInputNoiseStretchFloor = 1e-3;  // m
 inline constexpr double kInputNoiseClip = 3.0;
 inline constexpr int kInputNoiseWarmRows = 10;
 // A jump's residual and the 3 after it are held out of the means (an outlier of 1-3 rows
-// spoils up to 6); more rows than this in a row are a noise that rose, and count.
+// spoils up to 6); more rows than this in a row are a noise that rose, and count. A re-fit
+// that stays a second row is no part of such a run: what its rows did to the mean and the
+// run is taken back (Leap Motion's re-fits a few rows apart made runs that counted).
 inline constexpr int kInputNoiseHeldRows = 6;
 // The smallest RMS the clipping assumes (m): a clean input's estimate near 0 can still rise.
 inline constexpr double kInputNoiseFloor = 1e-4;
@@ -82,6 +84,12 @@ class InputNoise {
   // followed.
   std::array<bool, kJointCount> moved_{};
   std::array<int, kJointCount> follow_{};
+  // The smoothness mean, its count and the run of held rows as they were before the last
+  // jump that may be a re-fit (taken back if it stays a second row); a re-fit confirmed in
+  // the last row, to verify in this one; rows it still spoils, held out of the run.
+  std::array<double, kJointCount> before_smooth2_{};
+  std::array<int, kJointCount> before_n_{}, before_held_{}, aside_{};
+  std::array<bool, kJointCount> verify_{};
 };
 
 }  // namespace hs
