@@ -38,6 +38,15 @@ hs::Pose writing_hand(double t) {
   return (base * r.transpose()).rowwise() + shift;
 }
 
+// A tracker's re-fit of the index finger: turned by 70 degrees about its proximal joint,
+// every bone keeping its length.
+hs::Pose refitted(hs::Pose p) {
+  const int base = hs::idx(hs::Joint::IndexProximal), tip = hs::idx(hs::Joint::IndexTip);
+  const Eigen::Matrix3d turn = Eigen::AngleAxisd(1.2, Eigen::Vector3d(1.0, 0.3, 0.2).normalized()).toRotationMatrix();
+  for (int j = base + 1; j <= tip; ++j) p.row(j) = ((p.row(j) - p.row(base)) * turn.transpose() + p.row(base)).eval();
+  return p;
+}
+
 // Times at 90 Hz with each interval 0.8-1.2 periods (the benchmark's irregular times).
 std::vector<double> irregular_times(double seconds, std::mt19937_64& rng) {
   std::uniform_real_distribution<double> u(0.8, 1.2);
@@ -223,7 +232,6 @@ TEST_CASE("InputNoise: a finger the tracker turns over and keeps there is follow
   const auto times = irregular_times(6.0, rng);
   std::normal_distribution<double> noise(0.0, 0.0002);
   const int base = hs::idx(hs::Joint::IndexProximal), tip = hs::idx(hs::Joint::IndexTip);
-  const Eigen::Matrix3d turn = Eigen::AngleAxisd(1.2, Eigen::Vector3d(1.0, 0.3, 0.2).normalized()).toRotationMatrix();
   InputNoise flipping, spiky;
   int flips = 0, first_jumps = 0, after_jumps = 0, outliers = 0, found = 0, blips = 0, blips_found = 0;
   for (size_t i = 0; i < times.size(); ++i) {
@@ -232,10 +240,8 @@ TEST_CASE("InputNoise: a finger the tracker turns over and keeps there is follow
     // the other stream it turns for the one row in 40 alone (a blip).
     const bool turned = i >= 40 && (i / 40) % 2 == 1, blip = i >= 40 && i % 40 == 30;
     hs::Pose q = p;
-    for (int j = base + 1; j <= tip; ++j) {
-      if (turned) p.row(j) = ((p.row(j) - p.row(base)) * turn.transpose() + p.row(base)).eval();
-      if (blip) q.row(j) = ((q.row(j) - q.row(base)) * turn.transpose() + q.row(base)).eval();
-    }
+    if (turned) p = refitted(p);
+    if (blip) q = refitted(q);
     p = hs::test::jittered(p, rng, noise);
     q = hs::test::jittered(q, rng, noise);
     flipping.push(times[i], frame_of(p));
@@ -279,7 +285,6 @@ TEST_CASE("InputNoise: re-fits close together are no noise that rose") {
   const auto times = irregular_times(6.0, rng);
   std::normal_distribution<double> noise(0.0, 0.0002);
   const int base = hs::idx(hs::Joint::IndexProximal), tip = hs::idx(hs::Joint::IndexTip);
-  const Eigen::Matrix3d turn = Eigen::AngleAxisd(1.2, Eigen::Vector3d(1.0, 0.3, 0.2).normalized()).toRotationMatrix();
   InputNoise n;
   double worst = 0.0;
   int turns = 0;
@@ -287,8 +292,7 @@ TEST_CASE("InputNoise: re-fits close together are no noise that rose") {
     hs::Pose p = writing_hand(times[i]);
     // From row 12 on (the means barely warm), every 6 rows the finger turns by 70 degrees or back.
     const bool turned = i >= 12 && ((i - 12) / 6) % 2 == 0;
-    if (turned)
-      for (int j = base + 1; j <= tip; ++j) p.row(j) = ((p.row(j) - p.row(base)) * turn.transpose() + p.row(base)).eval();
+    if (turned) p = refitted(p);
     const size_t since = i >= 12 ? (i - 12) % 6 : 99;
     turns += since == 0;
     n.push(times[i], frame_of(hs::test::jittered(p, rng, noise)));
@@ -311,7 +315,6 @@ TEST_CASE("PoseFilter adapter: at 90 Hz a finger the tracker re-fits again and a
   const auto times = irregular_times(8.0, rng);
   std::normal_distribution<double> noise(0.0, 0.0002);
   const int base = hs::idx(hs::Joint::IndexProximal), tip = hs::idx(hs::Joint::IndexTip);
-  const Eigen::Matrix3d turn = Eigen::AngleAxisd(1.2, Eigen::Vector3d(1.0, 0.3, 0.2).normalized()).toRotationMatrix();
   auto filter = hs::make_stgae_filter(model, 0.0, 0, true);
   hs::Pose out;
   double worst = 0.0, turn_size = 0.0;
@@ -323,8 +326,7 @@ TEST_CASE("PoseFilter adapter: at 90 Hz a finger the tracker re-fits again and a
     // every 6 rows, four times.
     const size_t in_cycle = i >= 120 ? (i - 120) % 90 : 99;
     const bool turned = in_cycle < 48 && (in_cycle / 6) % 2 == 0;
-    if (turned)
-      for (int j = base + 1; j <= tip; ++j) p.row(j) = ((p.row(j) - p.row(base)) * turn.transpose() + p.row(base)).eval();
+    if (turned) p = refitted(p);
     const hs::Pose kept = p;
     filter->push(times[i], hs::test::jittered(p, rng, noise));
     if (in_cycle < 48 && in_cycle % 6 == 0) {
@@ -381,7 +383,6 @@ TEST_CASE("PoseFilter adapter: at 90 Hz a finger the tracker re-fits and keeps i
   std::mt19937_64 rng(9);
   const auto times = irregular_times(5.0, rng);
   const int base = hs::idx(hs::Joint::IndexProximal), tip = hs::idx(hs::Joint::IndexTip);
-  const Eigen::Matrix3d turn = Eigen::AngleAxisd(1.2, Eigen::Vector3d(1.0, 0.3, 0.2).normalized()).toRotationMatrix();
   auto filter = hs::make_stgae_filter(model, 0.0, 0, true);
   hs::Pose out;
   double worst_after = 0.0, turn_size = 0.0;
@@ -390,8 +391,7 @@ TEST_CASE("PoseFilter adapter: at 90 Hz a finger the tracker re-fits and keeps i
     hs::Pose p = writing_hand(times[i]);
     // From row 120 on, every 60 rows, the finger turns by 70 degrees or back.
     const bool turned = i >= 120 && ((i - 120) / 60) % 2 == 0;
-    if (turned)
-      for (int j = base + 1; j <= tip; ++j) p.row(j) = ((p.row(j) - p.row(base)) * turn.transpose() + p.row(base)).eval();
+    if (turned) p = refitted(p);
     filter->push(times[i], p);
     const size_t since = i >= 120 ? (i - 120) % 60 : 99;
     if (since == 0) {
