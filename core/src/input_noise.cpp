@@ -48,7 +48,6 @@ void InputNoise::reset() noexcept {
   before_smooth2_.fill(0.0);
   before_n_.fill(0);
   before_held_.fill(0);
-  verify_.fill(false);
   aside_.fill(0);
 }
 
@@ -126,11 +125,15 @@ void InputNoise::push(double t, std::span<const float> x) noexcept {
     // answer: reported on its first row only, then followed while the quadratic still runs
     // through it.
     const float* xj = x.data() + 3 * ju;
-    const bool refit = moved_[ju] && finite_xyz(xj) && !strained[ju] &&
-                       (at(xj) - at(rows_[0].data() + 3 * ju)).squaredNorm() < (at(xj) - at(rows_[1].data() + 3 * ju)).squaredNorm();
+    // This row stays nearer the joint's place `to` rows back than `from` rows back.
+    const auto stays = [&](size_t to, size_t from) {
+      return finite_xyz(xj) && (at(xj) - at(rows_[to].data() + 3 * ju)).squaredNorm() <
+                                   (at(xj) - at(rows_[from].data() + 3 * ju)).squaredNorm();
+    };
+    const bool confirmed_last = follow_[ju] == kQuadRows - 1;  // the last row confirmed a re-fit
+    const bool refit = moved_[ju] && !strained[ju] && stays(0, 1);
     if (refit) {
       follow_[ju] = kQuadRows;
-      verify_[ju] = true;
     } else if (follow_[ju] > 0 && (strained[ju] || !jumped)) {
       follow_[ju] = 0;
     }
@@ -139,15 +142,11 @@ void InputNoise::push(double t, std::span<const float> x) noexcept {
     // they and the rows it still spoils leave the run of held rows, which two re-fits close
     // together made long enough to count (a thumb's noise then read 10-16 mm on a clean
     // Leap recording, and the trust region let the network hold the old thumb for rows).
-    if (verify_[ju] && !refit) {
-      verify_[ju] = false;
-      if (finite_xyz(xj) && follow_[ju] > 0 &&
-          (at(xj) - at(rows_[0].data() + 3 * ju)).squaredNorm() < (at(xj) - at(rows_[2].data() + 3 * ju)).squaredNorm()) {
-        smooth2_[ju] = before_smooth2_[ju];
-        smooth_n_[ju] = before_n_[ju];
-        held_[ju] = before_held_[ju];
-        aside_[ju] = follow_[ju];
-      }
+    if (confirmed_last && follow_[ju] > 0 && stays(0, 2)) {
+      smooth2_[ju] = before_smooth2_[ju];
+      smooth_n_[ju] = before_n_[ju];
+      held_[ju] = before_held_[ju];
+      aside_[ju] = follow_[ju];
     }
     const bool may_refit = jumped && !strained[ju] && follow_[ju] == 0;
     if (may_refit) {

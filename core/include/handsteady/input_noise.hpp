@@ -85,11 +85,10 @@ class InputNoise {
   std::array<bool, kJointCount> moved_{};
   std::array<int, kJointCount> follow_{};
   // The smoothness mean, its count and the run of held rows as they were before the last
-  // jump that may be a re-fit (taken back if it stays a second row); a re-fit confirmed in
-  // the last row, to verify in this one; rows it still spoils, held out of the run.
+  // jump that may be a re-fit (taken back if it stays a second row); rows a re-fit that
+  // stayed still spoils, held out of the run.
   std::array<double, kJointCount> before_smooth2_{};
   std::array<int, kJointCount> before_n_{}, before_held_{}, aside_{};
-  std::array<bool, kJointCount> verify_{};
 };
 
 }  // namespace hs
