@@ -8,7 +8,7 @@
 # truth's at H = 0 and 50 ms, the mean lag, per set at H = 0
 # and 50 ms, and the cells where B's H = 0 MPJPE is more than 0.5 % lower / higher; at 50 ms
 # the same count and every noise cell's change, then each cell of the other blocks (rates,
-# hand shapes, recordings without truth) at 50 ms.
+# hand shapes, recordings at their own times or without truth) at H = 0 and 50 ms.
 # Usage: scripts/benchmark_per_set.py [--by-rate] out/benchmark/benchmark.json
 #        scripts/benchmark_per_set.py --cells A.json LABEL_A B.json LABEL_B
 import collections, json, statistics, sys
@@ -46,10 +46,13 @@ if args[:1] == ['--cells']:
           f'{sum(r > 1.005 for r in r50.values())} of {len(r50)}')
     for c in sorted(r50, key=r50.get):  # every noise cell's 50 ms change, best first
         print(f'  50 ms {100 * (r50[c] - 1):+.1f} %  {c}')
-    # The other blocks (rates, hand shapes, recordings without truth), cell by cell at 50 ms.
+    # The other blocks (rates, hand shapes, recordings at their own times or without truth),
+    # cell by cell at H = 0 and 50 ms.
     for c in sorted(oa.keys() & ob.keys()):
+        x0, y0 = oa[c]['h0ms']['mpjpe_mm'], ob[c]['h0ms']['mpjpe_mm']
         x, y = oa[c]['h50ms']['mpjpe_mm'], ob[c]['h50ms']['mpjpe_mm']
-        print(f'{c}: 50 ms {x:.3f} -> {y:.3f} ({100 * (y / x - 1):+.1f} %)')
+        ch0 = f' ({100 * (y0 / x0 - 1):+.1f} %)' if x0 > 0 else ''
+        print(f'{c}: H = 0 {x0:.3f} -> {y0:.3f}{ch0}, 50 ms {x:.3f} -> {y:.3f} ({100 * (y / x - 1):+.1f} %)')
     sys.exit(0)
 by_rate = args[:1] == ['--by-rate']
 if by_rate:

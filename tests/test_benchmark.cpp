@@ -160,7 +160,7 @@ TEST_CASE("the grid on synthetic motion: noise is what it says, filters are scor
   o.quick = true;
   bench::Report r;
   bench::tune_oneeuro(sets, o, r);
-  CHECK(r.tuned.size() == bench::noise_grid(true).size());
+  CHECK(r.tuned.size() == bench::noise_grid(true).size() + 1);  // and the clean recording
   auto methods = bench::classical_methods(r.tuned);
   // A method that answers 5 mm off: the still-hand measure must see it.
   methods.push_back({"offset", [](const std::string&) {
@@ -210,6 +210,26 @@ TEST_CASE("the grid on synthetic motion: noise is what it says, filters are scor
   }
   CHECK(rate);
   CHECK(shape);
+  // At the recording's own times: its own rows, not resampled; clean, raw is the truth.
+  const auto native = [&](const std::string& family, const std::string& method) -> const bench::Result* {
+    for (const auto& x : r.results)
+      if (x.cell.block == "native" && x.cell.family == family && x.method == method) return &x;
+    return nullptr;
+  };
+  const auto* raw_clean = native("clean", "raw");
+  const auto* oe_clean = native("clean", "oneeuro");
+  const auto* raw_white = native("white", "raw");
+  REQUIRE(raw_clean);
+  REQUIRE(oe_clean);
+  REQUIRE(raw_white);
+  REQUIRE(native("preset", "raw"));
+  CHECK(raw_clean->cell.dataset == "synth-test");
+  CHECK(raw_clean->cell.rate_hz == doctest::Approx(120.0));
+  CHECK(raw_clean->at[0].frames == hand_series(sets[1].clean, Hand::Right).size());
+  CHECK(raw_clean->at[0].mpjpe_mm == doctest::Approx(0.0));
+  CHECK(oe_clean->at[0].mpjpe_mm > 0.01);  // a filter changes a clean input: what it adds is seen
+  CHECK(raw_white->at[0].mpjpe_mm == doctest::Approx(2.39).epsilon(0.08));
+  CHECK(raw_clean->at[2].mpjpe_mm > 1.0);  // holding the last sample 50 ms is not free
   bool saw_raw = false, saw_offset = false;
   for (const auto& s : r.still) {
     if (s.method == "raw") {
@@ -228,6 +248,8 @@ TEST_CASE("the grid on synthetic motion: noise is what it says, filters are scor
   const std::string md = bench::report_markdown(r, o);
   CHECK(md.find("## synth-test") != std::string::npos);
   CHECK(md.find("## Start and stillness") != std::string::npos);
+  CHECK(md.find("## At the recordings' own times") != std::string::npos);
+  CHECK(md.find("| synth-test | clean - | 120 |") != std::string::npos);
   // The summary's raw row: the mean of raw's MPJPE over the noise cells.
   double raw_sum = 0.0;
   int raw_n = 0;

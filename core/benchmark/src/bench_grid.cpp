@@ -219,6 +219,22 @@ std::vector<NoiseCell> noise_grid(bool quick) {
   return g;
 }
 
+NoiseCell clean_cell() {
+  return {"clean", "-", 0.0, [](double) { return std::vector<CorruptionConfig>{}; }};
+}
+
+double recorded_rate_hz(const Track& track) {
+  std::vector<double> dt;
+  for (const Hand h : {Hand::Left, Hand::Right}) {
+    const HandSeries s = hand_series(track, h);
+    for (size_t i = 1; i < s.size(); ++i)
+      if (const double d = s.t[i] - s.t[i - 1]; d > 0.0 && d < 0.5) dt.push_back(d);  // not the gaps between takes
+  }
+  if (dt.empty()) return 0.0;
+  std::nth_element(dt.begin(), dt.begin() + static_cast<std::ptrdiff_t>(dt.size() / 2), dt.end());
+  return std::round(10.0 / dt[dt.size() / 2]) / 10.0;
+}
+
 std::vector<ShapeVariant> shape_variants(bool quick) {
   if (quick) return {{"standard"}, {"bones x0.8", ShapeKind::Scale, 0.8}, {"wrist +2cm", ShapeKind::WristProximal, 0.02}};
   return {{"standard"},
@@ -271,7 +287,8 @@ Track to_track(const std::array<HandSeries, 2>& hands) {
   return t;
 }
 
-// Shape -> irregular rate -> corruption, per hand, seeded by the cell.
+// Shape -> irregular rate (block "native": the recording's own rows) -> corruption, per
+// hand, seeded by the cell.
 Prepared prepare(const Dataset& d, const Cell& cell, const NoiseCell* noise, const ShapeVariant& shape, uint64_t seed,
                  std::shared_ptr<const Track>& shaped_cache) {
   Prepared p;
@@ -290,7 +307,9 @@ Prepared prepare(const Dataset& d, const Cell& cell, const NoiseCell* noise, con
   p.truth = shaped_cache;
   for (const Hand h : {Hand::Left, Hand::Right}) {
     const auto hi = static_cast<size_t>(h);
-    HandSeries in = resample_series_jittered(shaped[hi], cell.rate_hz, kTimeJitter, s + 17 * static_cast<uint64_t>(h));
+    HandSeries in = cell.block == "native"
+                        ? shaped[hi]
+                        : resample_series_jittered(shaped[hi], cell.rate_hz, kTimeJitter, s + 17 * static_cast<uint64_t>(h));
     p.clean[hi] = in;
     if (noise) {
       uint64_t k = 0;
@@ -438,7 +457,8 @@ double jitter_at_lag(std::vector<std::pair<double, double>> lag_jitter, double l
 }
 
 void tune_oneeuro(const std::vector<Dataset>& datasets, const Options& options, Report& report) {
-  const auto noise = noise_grid(options.quick);
+  auto noise = noise_grid(options.quick);
+  noise.push_back(clean_cell());
   const auto points = sweep_points(options.quick);
   const ShapeVariant standard{"standard"};
   std::vector<const Dataset*> tuning;
@@ -500,8 +520,9 @@ void run_grid(const std::vector<Dataset>& datasets, const std::vector<Method>& m
     report.sets.push_back({d.name, d.split == Split::Tuning ? "tuning" : "test", d.source, d.clean.rows.size(), d.rate_hz,
                            d.has_truth});
 
-  // The cells: every test set with truth x every noise cell at its rate (block "noise");
-  // rates and shapes on the sets that have many hands and motions; recordings as they are.
+  // The cells: every test set with truth x every noise cell at its rate (block "noise"),
+  // and at its own times (block "native"); rates and shapes on the sets that have many
+  // hands and motions; recordings as they are.
   struct Spec {
     const Dataset* d;
     Cell cell;
@@ -512,6 +533,7 @@ void run_grid(const std::vector<Dataset>& datasets, const std::vector<Method>& m
   const std::vector<double> rates = options.quick ? std::vector<double>{20.0, 90.0} : std::vector<double>{20.0, 30.0, 60.0, 90.0};
   const NoiseCell* tracker_preset = find_noise("preset", "tracker");
   const NoiseCell* white = find_noise("white", "1.5mm");
+  const NoiseCell clean = clean_cell();
   for (const Dataset& d : datasets) {
     if (d.split != scored) continue;
     if (!d.has_truth) {
@@ -520,6 +542,10 @@ void run_grid(const std::vector<Dataset>& datasets, const std::vector<Method>& m
     }
     for (const NoiseCell& n : noise)
       specs.push_back({&d, Cell{"noise", d.name, n.family, n.strength, "standard", d.rate_hz, n.level_mm}, &n, shapes.front()});
+    if (const double own = recorded_rate_hz(d.clean); own > 0.0)
+      for (const NoiseCell* n : {&clean, tracker_preset, white})
+        if (n)
+          specs.push_back({&d, Cell{"native", d.name, n->family, n->strength, "standard", own, n->level_mm}, n, shapes.front()});
     if (!d.wide) continue;
     for (const NoiseCell* n : {tracker_preset, white}) {
       if (!n) continue;

@@ -326,6 +326,22 @@ std::string report_markdown(const Report& r, const Options& o) {
     }
     s += t + "\n";
   }
+  if (const auto cs = cells_of(r, "native"); !cs.empty()) {
+    s += "## At the recordings' own times (no resampling)\n\nEach set with truth as recorded: its own rows, rate "
+         "changes and re-fits. Clean, raw's answer is the truth (0 mm), so a method's error there is all it adds. MPJPE "
+         "at H = 0 (lag ms) · MPJPE at 50 ms\n\n";
+    std::string t = header_row({"set", "noise", "median rate Hz"}, r.methods);
+    for (const Cell& c : cs) {
+      t += fmt::format("| {} | {} {} | {:g} |", c.dataset, c.family, c.strength, c.rate_hz);
+      for (const auto& m : r.methods) {
+        const Metrics* a = at(ix, c, m, 0);
+        const Metrics* b = at(ix, c, m, 2);
+        t += " " + (a && b ? num(a->mpjpe_mm, 3) + " (" + num(a->lag_ms, 1) + ") · " + num(b->mpjpe_mm, 2) : "–") + " |";
+      }
+      t += "\n";
+    }
+    s += t + "\n";
+  }
   if (const auto cs = cells_of(r, "shape"); !cs.empty()) {
     s += "## Hand shapes (tracker preset)\n\nMPJPE at H = 0 · E_bon mm²\n\n";
     s += table(r, ix, cs, {"set", "shape"}, [](const Cell& c) { return std::vector<std::string>{c.dataset, c.shape}; }, 0,

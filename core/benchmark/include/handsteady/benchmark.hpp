@@ -53,6 +53,11 @@ struct NoiseCell {
   std::string key() const { return family + " " + strength; }
 };
 std::vector<NoiseCell> noise_grid(bool quick);
+// No noise added: the recording itself is the input (block "native"; raw's answer is the
+// truth, so what a method changes is all it adds). One Euro is tuned for it too.
+NoiseCell clean_cell();
+// The recording's own rate: 1 / the median interval between its rows (Hz, to 0.1).
+double recorded_rate_hz(const Track& track);
 
 // The hands the benchmark scores on (handsteady/hand_shape.hpp), applied to the truth.
 using hs::ShapeKind;
@@ -90,7 +95,11 @@ struct Options {
 };
 
 struct Cell {
-  std::string block;    // "noise", "rate", "shape", "recorded"
+  // "noise", "rate", "shape", "recorded", or "native": a set with truth at its own row
+  // times (rate_hz is then recorded_rate_hz, not resampled), clean, the tracker preset and
+  // 1.5 mm white jitter. Leap Motion's service changes its rate within a take (96 / 48 Hz)
+  // and re-fits fingers between rows: the grid's resampling smooths both away.
+  std::string block;
   std::string dataset, family, strength, shape;
   double rate_hz = 0;
   double level_mm = 0;
