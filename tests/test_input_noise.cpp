@@ -19,23 +19,12 @@ namespace {
 using hs::InputNoise;
 using hs::kJointCount;
 constexpr size_t kFs = 3 * kJointCount;
-constexpr double kPi = 3.14159265358979323846;
 
 std::vector<float> frame_of(const hs::Pose& p) {
   std::vector<float> f(kFs);
   for (int j = 0; j < kJointCount; ++j)
     for (int c = 0; c < 3; ++c) f[static_cast<size_t>(3 * j + c)] = static_cast<float>(p(j, c));
   return f;
-}
-
-// A hand writing fast: strokes of 1 cm at 4 Hz along x and 6 mm at 5 Hz along y, the hand
-// turning by 10 degrees at 1 Hz (rigid: the bones keep their lengths).
-hs::Pose writing_hand(double t) {
-  const hs::Pose base = hs::test::synthetic_hand();
-  const Eigen::Matrix3d r = Eigen::AngleAxisd(0.17 * std::sin(2.0 * kPi * t), Eigen::Vector3d::UnitZ()).toRotationMatrix();
-  const Eigen::RowVector3d shift(0.1 + 0.01 * std::sin(2.0 * kPi * 4.0 * t), -0.2 + 0.006 * std::sin(2.0 * kPi * 5.0 * t + 1.0),
-                                 -0.35);
-  return (base * r.transpose()).rowwise() + shift;
 }
 
 // A tracker's re-fit of the index finger: turned by 70 degrees about its proximal joint,
@@ -71,11 +60,11 @@ TEST_CASE("InputNoise: white jitter in full, irregular times, fast clean motion 
   double stream_d2 = 0.0;  // the trust region's own measure on this motion: 30 Hz second differences
   int stream_n = 0;
   for (size_t i = 0; i < times.size(); ++i) {
-    const hs::Pose p = writing_hand(times[i]);
+    const hs::Pose p = hs::test::writing_hand(times[i]);
     clean.push(times[i], frame_of(p));
     noisy.push(times[i], frame_of(hs::test::jittered(p, rng, noise)));
     if (i >= 6 && i % 3 == 0) {
-      const hs::Pose d2 = p - 2.0 * writing_hand(times[i - 3]) + writing_hand(times[i - 6]);
+      const hs::Pose d2 = p - 2.0 * hs::test::writing_hand(times[i - 3]) + hs::test::writing_hand(times[i - 6]);
       stream_d2 += d2.rowwise().squaredNorm().mean();
       ++stream_n;
     }
@@ -100,7 +89,7 @@ TEST_CASE("InputNoise: correlated per-joint jitter shows in the bones, a row's j
   for (int i = 0; i < 400; ++i) {
     for (int j = 0; j < kJointCount; ++j)
       for (int c = 0; c < 3; ++c) n(j, c) = a * n(j, c) + drive(rng);
-    est.push(i / 90.0, frame_of(writing_hand(i / 90.0) + n));
+    est.push(i / 90.0, frame_of(hs::test::writing_hand(i / 90.0) + n));
   }
   // The index tip's bone: both ends carry 1.5 mm per axis, E|n|^2 = 6.75 mm^2.
   const double tip = std::sqrt(est.noise2(hs::idx(hs::Joint::IndexTip)));
@@ -110,15 +99,15 @@ TEST_CASE("InputNoise: correlated per-joint jitter shows in the bones, a row's j
 
   // A 20 mm jump of one joint in one row is that row's jump, not the others'.
   InputNoise j;
-  for (int i = 0; i < 10; ++i) j.push(i / 90.0, frame_of(writing_hand(i / 90.0)));
-  hs::Pose out = writing_hand(10 / 90.0);
+  for (int i = 0; i < 10; ++i) j.push(i / 90.0, frame_of(hs::test::writing_hand(i / 90.0)));
+  hs::Pose out = hs::test::writing_hand(10 / 90.0);
   out(hs::idx(hs::Joint::MiddleTip), 1) += 0.02;
   j.push(10 / 90.0, frame_of(out));
   CHECK(j.jump(hs::idx(hs::Joint::MiddleTip)) == doctest::Approx(0.02).epsilon(0.05));
   CHECK(j.jump(hs::idx(hs::Joint::IndexTip)) < 1e-3);  // the motion's own third difference: 0.24 mm
 
   // A missing joint: no jump, no new evidence, the others unchanged; no allocation.
-  auto f = frame_of(writing_hand(11 / 90.0));
+  auto f = frame_of(hs::test::writing_hand(11 / 90.0));
   for (int c = 0; c < 3; ++c) f[3 * static_cast<size_t>(hs::idx(hs::Joint::IndexTip)) + c] = NAN;
   const double before = j.noise2(hs::idx(hs::Joint::IndexTip));
   hs::test::g_allocations = 0;
@@ -147,7 +136,7 @@ TEST_CASE("InputNoise: a row is a jump only beyond what the noise explains, and 
   int rows = 0, white_jumps = 0, outliers = 0, outliers_found = 0;
   double spiky_noise2 = 0.0, white_noise2 = 0.0, found_sum = 0.0;
   for (size_t i = 0; i < times.size(); ++i) {
-    const hs::Pose p = hs::test::jittered(writing_hand(times[i]), rng, noise);
+    const hs::Pose p = hs::test::jittered(hs::test::writing_hand(times[i]), rng, noise);
     white.push(times[i], frame_of(p));
     hs::Pose q = p;
     const bool outlier = i >= 30 && i % 20 == 0;
@@ -195,7 +184,7 @@ TEST_CASE("InputNoise: a joint that moves with its parent moved with the hand, o
     const double t = times[i];
     const double phase = 3.0 * t - std::floor(3.0 * t);  // of the 3 Hz sweep
     const Eigen::RowVector3d shake(0.02 * (phase < 0.5 ? 4.0 * phase - 1.0 : 3.0 - 4.0 * phase), 0.0, 0.0);
-    const hs::Pose p = hs::test::jittered((writing_hand(t).rowwise() + shake).eval(), rng, noise);
+    const hs::Pose p = hs::test::jittered((hs::test::writing_hand(t).rowwise() + shake).eval(), rng, noise);
     shaking.push(t, frame_of(p));
     hs::Pose q = p;
     const bool outlier = i >= 30 && i % 20 == 0;
@@ -235,7 +224,7 @@ TEST_CASE("InputNoise: a finger the tracker turns over and keeps there is follow
   InputNoise flipping, spiky;
   int flips = 0, first_jumps = 0, after_jumps = 0, outliers = 0, found = 0, blips = 0, blips_found = 0;
   for (size_t i = 0; i < times.size(); ++i) {
-    hs::Pose p = writing_hand(times[i]);
+    hs::Pose p = hs::test::writing_hand(times[i]);
     // Every 40 rows the finger turns by 70 degrees about its proximal joint, or back; in
     // the other stream it turns for the one row in 40 alone (a blip).
     const bool turned = i >= 40 && (i / 40) % 2 == 1, blip = i >= 40 && i % 40 == 30;
@@ -289,7 +278,7 @@ TEST_CASE("InputNoise: re-fits close together are no noise that rose") {
   double worst = 0.0;
   int turns = 0;
   for (size_t i = 0; i < times.size(); ++i) {
-    hs::Pose p = writing_hand(times[i]);
+    hs::Pose p = hs::test::writing_hand(times[i]);
     // From row 12 on (the means barely warm), every 6 rows the finger turns by 70 degrees or back.
     const bool turned = i >= 12 && ((i - 12) / 6) % 2 == 0;
     if (turned) p = refitted(p);
@@ -320,7 +309,7 @@ TEST_CASE("PoseFilter adapter: at 90 Hz a finger the tracker re-fits again and a
   double worst = 0.0, turn_size = 0.0;
   int turns = 0;
   for (size_t i = 0; i < times.size(); ++i) {
-    const hs::Pose truth = writing_hand(times[i]);
+    const hs::Pose truth = hs::test::writing_hand(times[i]);
     hs::Pose p = truth;
     // From row 120 on, every 90 rows, a burst: the finger turns by 70 degrees and back
     // every 6 rows, four times.
@@ -358,7 +347,7 @@ TEST_CASE("PoseFilter adapter: at 90 Hz a clean hand writing fast is answered ne
   int n = 0;
   hs::Pose out;
   for (const double t : times) {
-    const hs::Pose p = writing_hand(t);
+    const hs::Pose p = hs::test::writing_hand(t);
     bounded->push(t, p);
     free->push(t, p);
     if (t < 1.0) continue;
@@ -388,7 +377,7 @@ TEST_CASE("PoseFilter adapter: at 90 Hz a finger the tracker re-fits and keeps i
   double worst_after = 0.0, turn_size = 0.0;
   int turns = 0;
   for (size_t i = 0; i < times.size(); ++i) {
-    hs::Pose p = writing_hand(times[i]);
+    hs::Pose p = hs::test::writing_hand(times[i]);
     // From row 120 on, every 60 rows, the finger turns by 70 degrees or back.
     const bool turned = i >= 120 && ((i - 120) / 60) % 2 == 0;
     if (turned) p = refitted(p);
@@ -396,7 +385,7 @@ TEST_CASE("PoseFilter adapter: at 90 Hz a finger the tracker re-fits and keeps i
     const size_t since = i >= 120 ? (i - 120) % 60 : 99;
     if (since == 0) {
       ++turns;
-      const hs::Pose before = writing_hand(times[i]);
+      const hs::Pose before = hs::test::writing_hand(times[i]);
       turn_size = std::max(turn_size, (p.row(tip) - before.row(tip)).norm());
     }
     if (since >= 1 && since <= 3) {

@@ -12,6 +12,7 @@
 #include <fstream>
 #include <memory>
 #include <mutex>
+#include <numbers>
 #include <random>
 #include <sstream>
 #include <string>
@@ -128,6 +129,16 @@ inline Pose synthetic_hand() {
     p.row(j + 4) << x, y0 + 0.085, z;
   }
   return p;
+}
+
+// A hand writing fast: strokes of 1 cm at 4 Hz along x and 6 mm at 5 Hz along y, the hand
+// turning by 10 degrees at 1 Hz (rigid: the bones keep their lengths).
+inline Pose writing_hand(double t) {
+  constexpr double pi = std::numbers::pi;
+  const Eigen::Matrix3d r = Eigen::AngleAxisd(0.17 * std::sin(2.0 * pi * t), Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  const Eigen::RowVector3d shift(0.1 + 0.01 * std::sin(2.0 * pi * 4.0 * t), -0.2 + 0.006 * std::sin(2.0 * pi * 5.0 * t + 1.0),
+                                 -0.35);
+  return (synthetic_hand() * r.transpose()).rowwise() + shift;
 }
 
 // Runs the handsteady CLI with arguments; returns its exit status.

@@ -248,6 +248,7 @@ class StgaeFilter final : public PoseFilter {
   // interval stretched by tracking start, a runtime changing its rate).
   static constexpr int kRateWindow = 16;
   static constexpr int kRateStreak = 8;
+  static constexpr double kRateHysteresis = 1.1;
   static constexpr double kOlderPhaseWeight = 0.5;
   // The older stream's share is its prediction 1/K period ahead, which the trust region
   // holds only within reach of constant velocity: per joint, its weight is
@@ -273,7 +274,7 @@ class StgaeFilter final : public PoseFilter {
   struct RateMode {
     int phases = 1;
     bool locked = false;
-    int split = 1;  // locked frames per sample interval (input slower than the band)
+    int split = 1;  // locked frames per sample interval (input slower than the band, or 45-52 Hz)
     bool operator==(const RateMode&) const = default;
   };
 
@@ -326,7 +327,22 @@ class StgaeFilter final : public PoseFilter {
     RateMode m;
     m.phases = fixed_phases_ > 0 ? fixed_phases_
                                  : std::clamp(static_cast<int>(std::lround(std::min(period_ / dt, 100.0))), 1, kStgaeMaxPhases);
-    const double r = dt * m.phases / period_;
+    double r = dt * m.phases / period_;  // each stream's frame spacing in model periods, unsplit
+    // Two streams at 1.5-1.73 model rates (45-52 Hz under a 30 Hz model) see the hand up to
+    // 1.33 x faster than it moves, the edge of the speeds the model was trained on. One
+    // stream more on intervals split in two (a frame halfway, one at the sample) sees it
+    // at 0.87-1 x: taken where that is nearer 1 by ratio. At twice the rate three streams
+    // run on frames as far apart, so a tracker that halves its rate under load (Leap
+    // Motion's 96 and 48 Hz) changes only the split, and the streams keep their history
+    // (docs/STGAE.md "Three streams on split intervals").
+    if (fixed_phases_ == 0 && m.phases >= 2 && m.phases < kStgaeMaxPhases) {
+      const double more = dt * (m.phases + 1) / period_;
+      if (r * (0.5 * more) > 1.0) {
+        ++m.phases;
+        m.split = 2;
+        r = more;
+      }
+    }
     // Input slower than the band (under 22 Hz): each interval split into frames in the band,
     // the last at the sample, so a sample is still answered by a frame at its own time
     // instead of from a grid tick up to a period before it.
@@ -371,17 +387,21 @@ class StgaeFilter final : public PoseFilter {
   }
 
   // Whether a full window of intervals (median: theirs) has asked for another mode kRateStreak rows in a row.
-  // A locked mode is kept while the median still locks in it: at a rate between two modes
-  // (75 Hz: two streams at 0.8 periods or three at 1.2) irregular times would otherwise
-  // flip the mode, and each flip restarts the streams. A locked mode that only
+  // A locked mode is kept while the median still locks in it and a median kRateHysteresis
+  // times longer or shorter would choose it: at a rate between two modes (75 Hz: two
+  // streams at 0.8 periods or three at 1.2) irregular times would otherwise flip the mode,
+  // and each flip restarts the streams; further off (two streams at 1.33 periods, chosen by
+  // the first rows of a 47 Hz input) the mode it asks for is taken. A locked mode that only
   // splits its intervals differently is taken up without a restart: the streams keep their
   // history (a log near 22 Hz, 1.34 periods, crosses that edge often).
   bool rate_changed(double median) noexcept {
     if (!intervals_.full()) return false;
+    const RateMode running{phases_, locked_, split_};
     const double r = median * phases_ / (period_ * split_);
-    const bool still_locks = locked_ && r >= kLockMin && r <= kLockMax;
+    const bool still_locks = locked_ && r >= kLockMin && r <= kLockMax &&
+                             (mode_for(median * kRateHysteresis) == running || mode_for(median / kRateHysteresis) == running);
     const RateMode want = mode_for(median);
-    mismatch_rows_ = still_locks || want == RateMode{phases_, locked_, split_} ? 0 : mismatch_rows_ + 1;
+    mismatch_rows_ = still_locks || want == running ? 0 : mismatch_rows_ + 1;
     if (mismatch_rows_ < kRateStreak) return false;
     if (want.locked && locked_ && want.phases == phases_) {
       split_ = want.split;
