@@ -184,10 +184,11 @@ TEST_CASE("the grid on synthetic motion: noise is what it says, filters are scor
   bench::run_grid(sets, methods, o, r);
   REQUIRE(!r.results.empty());
   CHECK(r.results.size() % methods.size() == 0);
-  // A noise cell's result of one method in a report (r unless named).
-  const auto find_in = [](const bench::Report& rep, const std::string& family, const std::string& method) -> const bench::Result* {
+  // A cell's result of one method in a report (a noise cell of r unless named).
+  const auto find_in = [](const bench::Report& rep, const std::string& family, const std::string& method,
+                          const std::string& block = "noise") -> const bench::Result* {
     for (const auto& x : rep.results)
-      if (x.cell.block == "noise" && x.cell.family == family && x.method == method) return &x;
+      if (x.cell.block == block && x.cell.family == family && x.method == method) return &x;
     return nullptr;
   };
   const auto find = [&](const std::string& family, const std::string& method) { return find_in(r, family, method); };
@@ -211,11 +212,7 @@ TEST_CASE("the grid on synthetic motion: noise is what it says, filters are scor
   CHECK(rate);
   CHECK(shape);
   // At the recording's own times: its own rows, not resampled; clean, raw is the truth.
-  const auto native = [&](const std::string& family, const std::string& method) -> const bench::Result* {
-    for (const auto& x : r.results)
-      if (x.cell.block == "native" && x.cell.family == family && x.method == method) return &x;
-    return nullptr;
-  };
+  const auto native = [&](const std::string& family, const std::string& method) { return find_in(r, family, method, "native"); };
   const auto* raw_clean = native("clean", "raw");
   const auto* oe_clean = native("clean", "oneeuro");
   const auto* raw_white = native("white", "raw");

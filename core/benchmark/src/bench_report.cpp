@@ -157,6 +157,23 @@ std::string criteria(const Report& r, const Index& ix) {
   return s;
 }
 
+// One row per cell of set, noise and rate; per method the MPJPE at H = 0 (lag ms) · at 50 ms.
+std::string rate_table(const Report& r, const Index& ix, const std::vector<Cell>& cells, const std::string& rate_header,
+                       int mpjpe_decimals, int lag_decimals) {
+  std::string t = header_row({"set", "noise", rate_header}, r.methods);
+  for (const Cell& c : cells) {
+    t += fmt::format("| {} | {} {} | {:g} |", c.dataset, c.family, c.strength, c.rate_hz);
+    for (const auto& m : r.methods) {
+      const Metrics* a = at(ix, c, m, 0);
+      const Metrics* b = at(ix, c, m, 2);
+      t += " " + (a && b ? num(a->mpjpe_mm, mpjpe_decimals) + " (" + num(a->lag_ms, lag_decimals) + ") · " + num(b->mpjpe_mm, 2) : "–") +
+           " |";
+    }
+    t += "\n";
+  }
+  return t + "\n";
+}
+
 // One row per method over every noise cell: mean MPJPE and lag, how often it is the best,
 // and the median jitter ratio (a headline; the cells are in the tables below).
 std::string summary(const Report& r, const Index& ix) {
@@ -314,33 +331,13 @@ std::string report_markdown(const Report& r, const Options& o) {
 
   if (const auto cs = cells_of(r, "rate"); !cs.empty()) {
     s += "## Input rates (irregular times, ±20 % of a period)\n\nMPJPE at H = 0 (lag ms) · MPJPE at 50 ms\n\n";
-    std::string t = header_row({"set", "noise", "rate Hz"}, r.methods);
-    for (const Cell& c : cs) {
-      t += fmt::format("| {} | {} {} | {:g} |", c.dataset, c.family, c.strength, c.rate_hz);
-      for (const auto& m : r.methods) {
-        const Metrics* a = at(ix, c, m, 0);
-        const Metrics* b = at(ix, c, m, 2);
-        t += " " + (a && b ? num(a->mpjpe_mm, 2) + " (" + num(a->lag_ms, 0) + ") · " + num(b->mpjpe_mm, 2) : "–") + " |";
-      }
-      t += "\n";
-    }
-    s += t + "\n";
+    s += rate_table(r, ix, cs, "rate Hz", 2, 0);
   }
   if (const auto cs = cells_of(r, "native"); !cs.empty()) {
     s += "## At the recordings' own times (no resampling)\n\nEach set with truth as recorded: its own rows, rate "
          "changes and re-fits. Clean, raw's answer is the truth (0 mm), so a method's error there is all it adds. MPJPE "
          "at H = 0 (lag ms) · MPJPE at 50 ms\n\n";
-    std::string t = header_row({"set", "noise", "median rate Hz"}, r.methods);
-    for (const Cell& c : cs) {
-      t += fmt::format("| {} | {} {} | {:g} |", c.dataset, c.family, c.strength, c.rate_hz);
-      for (const auto& m : r.methods) {
-        const Metrics* a = at(ix, c, m, 0);
-        const Metrics* b = at(ix, c, m, 2);
-        t += " " + (a && b ? num(a->mpjpe_mm, 3) + " (" + num(a->lag_ms, 1) + ") · " + num(b->mpjpe_mm, 2) : "–") + " |";
-      }
-      t += "\n";
-    }
-    s += t + "\n";
+    s += rate_table(r, ix, cs, "median rate Hz", 3, 1);
   }
   if (const auto cs = cells_of(r, "shape"); !cs.empty()) {
     s += "## Hand shapes (tracker preset)\n\nMPJPE at H = 0 · E_bon mm²\n\n";
