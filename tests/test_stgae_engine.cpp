@@ -830,3 +830,37 @@ TEST_CASE("PoseFilter adapter: at 47 Hz the shipped model's three streams on spl
                                                       << " mm");
   CHECK(err_split < 0.97 * err_two);  // 0.945 when written; the same filter would be 1
 }
+
+TEST_CASE("PoseFilter adapter: a tracker that halves its rate (96 to 48 Hz) keeps the three streams' history") {
+  // Leap Motion's service drops from 96 to 48 Hz under load. Three streams on 96 Hz frames
+  // and three on 48 Hz intervals split in two run on frames as far apart, so the switch
+  // changes the split only: two adapters that saw different hands before it still answer
+  // differently after it (a restart would have made them answer alike from then on), until
+  // their streams' windows have passed (a long window and wide kernels, so that the
+  // frames before the switch are still in them when the split is taken up).
+  auto c = small_causal();
+  c.window = 32;
+  c.temporal_kernel = 9;
+  const auto model = small_model(c, 17);
+  constexpr int kFast = 60;
+  const int kSlow = 40 + 6 * c.window;
+  const auto a_src = hs::synthetic_hand_input(c, kFast + kSlow, 61), b_src = hs::synthetic_hand_input(c, kFast + kSlow, 67);
+  auto a = hs::make_stgae_filter(model, 0.0, 0, false), b = hs::make_stgae_filter(model, 0.0, 0, false);
+  hs::Pose oa, ob;
+  double t = 1.0, after_switch = 0.0, at_end = 0.0;
+  for (int n = 0; n < kFast + kSlow; ++n) {
+    t += n < kFast ? 1.0 / 96.0 : 1.0 / 48.0;
+    REQUIRE(a->push(t, pose_at(a_src, n)));
+    REQUIRE(b->push(t, n < kFast ? pose_at(b_src, n) : pose_at(a_src, n)));
+    a->estimate(t, oa);
+    b->estimate(t, ob);
+    const double d = (oa - ob).cwiseAbs().maxCoeff();
+    // The rate is watched over the last 16 intervals, a new mode taken after 8 rows.
+    if (n >= kFast + 26 && n < kFast + 30) after_switch = std::max(after_switch, d);
+    if (n == kFast + kSlow - 1) at_end = d;
+  }
+  MESSAGE("adapters that saw different hands before the switch: " << after_switch << " m apart just after it, " << at_end
+                                                                 << " m at the end");
+  CHECK(after_switch > 1e-4);
+  CHECK(at_end < 1e-6);  // the streams remember a window of frames: the check can fail
+}
