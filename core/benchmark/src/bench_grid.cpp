@@ -2,6 +2,7 @@
 // the runner (docs/BENCHMARK.md).
 #include "handsteady/benchmark.hpp"
 
+#include "handsteady/gap_policy.hpp"
 #include "handsteady/import.hpp"
 #include "handsteady/track_ops.hpp"
 
@@ -228,7 +229,7 @@ double recorded_rate_hz(const Track& track) {
   for (const Hand h : {Hand::Left, Hand::Right}) {
     const HandSeries s = hand_series(track, h);
     for (size_t i = 1; i < s.size(); ++i)
-      if (const double d = s.t[i] - s.t[i - 1]; d > 0.0 && d < 0.5) dt.push_back(d);  // not the gaps between takes
+      if (const double d = s.t[i] - s.t[i - 1]; d > 0.0 && d <= kInterpolateMaxGapS) dt.push_back(d);  // not a gap (between takes)
   }
   if (dt.empty()) return 0.0;
   std::nth_element(dt.begin(), dt.begin() + static_cast<std::ptrdiff_t>(dt.size() / 2), dt.end());

@@ -56,7 +56,8 @@ std::vector<NoiseCell> noise_grid(bool quick);
 // No noise added: the recording itself is the input (block "native"; raw's answer is the
 // truth, so what a method changes is all it adds). One Euro is tuned for it too.
 NoiseCell clean_cell();
-// The recording's own rate: 1 / the median interval between its rows (Hz, to 0.1).
+// The recording's own rate: 1 / the median interval between its rows (Hz, to 0.1), over
+// the intervals that are no gap (at most kInterpolateMaxGapS: not the time between takes).
 double recorded_rate_hz(const Track& track);
 
 // The hands the benchmark scores on (handsteady/hand_shape.hpp), applied to the truth.
