@@ -239,6 +239,34 @@ TEST_CASE("with the noise measured too, a slow error of the network's own is shr
   CHECK(e_ans < 1.1 * e_raw);
 }
 
+TEST_CASE("measured noise over the limit keeps the stream's own radius: a one-row shift is taken back whole") {
+  // One stream on slow rows passes kMeasuredNoiseMaxRms: the `paper` preset's shifts read
+  // as ~10 mm RMS of measured noise at the fingertips, where a radius of twice that held a
+  // 40 mm shift 20 mm off; the stream's own radius opens to the row's second difference.
+  const auto clean = frame_of(hs::test::synthetic_hand());
+  const std::vector<double> jump(kJointCount, 0.0);  // a shift InputNoise did not call a jump
+  auto answer = [&](double noise_rms, double max_rms) {
+    const std::vector<double> noise2(kJointCount, noise_rms * noise_rms);
+    CorrectionBound b;
+    for (int n = 0; n < 40; ++n) {
+      auto path = clean;
+      b.apply(clean, path, noise2, jump, max_rms);
+    }
+    auto x = clean;
+    x[3 * 7 + 1] += 0.04f;  // joint 7 shifted 40 mm for one row
+    auto path = clean;      // the network answers the clean hand
+    b.apply(x, path, noise2, jump, max_rms);
+    return joint_dist(path, clean, 3 * 7);
+  };
+  const double limited = answer(0.01, hs::kMeasuredNoiseMaxRms), unlimited = answer(0.01, CorrectionBound::kUnlimitedRms);
+  MESSAGE("a 40 mm one-row shift under 10 mm of measured noise: " << limited * 1e3 << " mm off with the limit, "
+          << unlimited * 1e3 << " mm without");
+  CHECK(limited < 1e-4);
+  CHECK(unlimited == doctest::Approx(0.02).epsilon(0.01));  // twice the noise: the measured radius
+  // Under the limit the measured noise bounds as before: 1 mm RMS moves the joint 2 mm at most.
+  CHECK(answer(0.001, hs::kMeasuredNoiseMaxRms) >= 0.04 - 0.002 - 1e-6);
+}
+
 TEST_CASE("constant offsets of the network, now and predicted, are taken out") {
   // The network answers 3 mm beside a noisy still hand and predicts it moving 2 mm a
   // period: the mean answers, now and ahead, are pulled back to the hand within a second or so.

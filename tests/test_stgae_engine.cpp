@@ -864,3 +864,36 @@ TEST_CASE("PoseFilter adapter: a tracker that halves its rate (96 to 48 Hz) keep
   CHECK(after_switch > 1e-4);
   CHECK(at_end < 1e-6);  // the streams remember a window of frames: the check can fail
 }
+
+TEST_CASE("PoseFilter adapter: one stream on rows slower than the model bounds its corrections by the rows' measured noise") {
+  // At 23.5 Hz (HoloLens 2's rate) one stream's frames are 1.28 model periods apart, and on
+  // a hand swiping fast (up to 1.6 m/s) its second difference is mostly motion: a radius
+  // opened by it let the network's lag through. The noise measured on the rows bounds it
+  // instead.
+  const auto model = hs::test::shipped_model();
+  std::mt19937_64 rng(23);
+  std::uniform_real_distribution<double> u(0.9, 1.1);
+  std::normal_distribution<double> noise(0.0, 0.0005);
+  auto f = hs::make_stgae_filter(model, 0.0, 0, true);
+  double err = 0.0, err_raw = 0.0;
+  int n = 0;
+  hs::Pose out;
+  auto swiping_hand = [](double t) {
+    constexpr double pi = std::numbers::pi;
+    const Eigen::RowVector3d shift(0.25 * std::sin(2.0 * pi * t), -0.2 + 0.05 * std::sin(2.0 * pi * 0.7 * t), -0.35);
+    return hs::Pose(hs::test::synthetic_hand().rowwise() + shift);
+  };
+  for (double t = 0.0; t < 12.0; t += u(rng) / 23.5) {
+    const hs::Pose truth = swiping_hand(t), in = hs::test::jittered(truth, rng, noise);
+    f->push(t, in);
+    if (t < 1.0) continue;
+    f->estimate(t, out);
+    err += (out - truth).rowwise().norm().mean();
+    err_raw += (in - truth).rowwise().norm().mean();
+    ++n;
+  }
+  MESSAGE("23.5 Hz, 0.5 mm white noise: mean joint error " << err / n * 1e3 << " mm, raw " << err_raw / n * 1e3 << " mm");
+  // 1.11 x raw's when written, 1.19 x with the stream's own radius (a temporary edit): the
+  // network still lags a hand this fast at this rate, less than it did.
+  CHECK(err < 1.15 * err_raw);
+}

@@ -270,6 +270,18 @@ class StgaeFilter final : public PoseFilter {
   // (rate_changed). With slower input split (mode_for), every rate up to 200 Hz locks.
   static constexpr double kLockMin = 0.6, kLockMax = 1.34;
 
+  // One stream locked on rows more than this many model periods apart (under 27 Hz under a
+  // 30 Hz model: HoloLens 2's 23.5 Hz) bounds its corrections by the noise measured on its
+  // rows (where that is under kMeasuredNoiseMaxRms), not by its frames' second difference:
+  // frames 1.2-1.34 periods apart on a fast hand are mostly motion there, the radius opened
+  // by it and the network's lag behind a fast move went through for rows after it. Not at the model's rate, where FPHA's `paper` and 50 ms rows lost, nor on split
+  // intervals (20 Hz), where the Leap low-noise cells did (docs/STGAE.md "One stream on
+  // slow rows").
+  static constexpr double kSlowRowsPeriods = 1.1;
+  bool slow_rows() const noexcept {
+    return phases_ == 1 && locked_ && split_ == 1 && lock_spacing_ > kSlowRowsPeriods * period_;
+  }
+
   // How the adapter frames input of one sampling interval.
   struct RateMode {
     int phases = 1;
@@ -429,8 +441,10 @@ class StgaeFilter final : public PoseFilter {
     if (bounded_) {
       // Input faster than the model: its rows measure the noise apart from the motion
       // (InputNoise); at the model's rate there is nothing finer than the stream's frames.
+      // One stream on rows slower than the model reads them too (slow_rows).
       auto& bound = bounds_[static_cast<size_t>(phase)];
       if (phases_ >= 2) bound.apply(frame, o.path, noise_.noise2(), noise_.jumps());
+      else if (slow_rows()) bound.apply(frame, o.path, noise_.noise2(), noise_.jumps(), kMeasuredNoiseMaxRms);
       else bound.apply(frame, o.path);
     }
     if (smoothed_) smoother_.apply(t, o.path);

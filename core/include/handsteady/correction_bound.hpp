@@ -52,6 +52,13 @@ inline constexpr double kMeasuredNoiseFactor = 2.0;
 // factors were chosen on the tuning split, at 30 Hz for one stream (docs/STGAE.md "Trust
 // region", "One stream: the correction's own correlation").
 inline constexpr double kCorrectionShareFactor = 2.0;
+// One stream on rows slower than the model (StgaeFilter, docs/STGAE.md "One stream on slow
+// rows"): the noise measured on its rows stands in for the stream's own only on joints
+// whose measured noise is under this RMS (m). Heavier noise, such as the `paper` preset's
+// shifts (read as ~10 mm RMS at the fingertips), keeps the stream's own radius, which opens
+// to this row's second difference and so lets a one-row shift be taken back whole. Chosen
+// on the tuning split at 23.5 Hz (3 mm: `paper` +2.7 %; unlimited: +7.8 %).
+inline constexpr double kMeasuredNoiseMaxRms = 3e-3;
 // min(1, explained / mean2): the share of something of mean square `mean2` that a noise of
 // mean square `explained` accounts for (the correction here, the older stream's weight in
 // the adapter).
@@ -114,8 +121,11 @@ class CorrectionBound {
   // second differences (empty spans: those), and bound the noise the correction's
   // correlation reads for the shrink (kCorrectionShareFactor). On a row that is no jump
   // the correction is first shrunk to the share of it that noise explains.
+  // Joints whose measured noise is over `measured_max_rms` (m) keep the stream's own
+  // radius and shrink (one stream on slow rows: kMeasuredNoiseMaxRms).
   void apply(std::span<const float> x, std::span<float> path, std::span<const double> noise2,
-             std::span<const double> jump) noexcept;
+             std::span<const double> jump, double measured_max_rms = kUnlimitedRms) noexcept;
+  static constexpr double kUnlimitedRms = 1e9;
   int frames() const noexcept { return frames_; }
   // The radius of joint j after the last apply (m); infinity when it was not bound.
   double radius(int j) const noexcept { return radius_[static_cast<size_t>(j)]; }
