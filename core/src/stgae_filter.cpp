@@ -274,9 +274,9 @@ class StgaeFilter final : public PoseFilter {
   // 30 Hz model: HoloLens 2's 23.5 Hz) bounds its corrections by the noise measured on its
   // rows (where that is under kMeasuredNoiseMaxRms), not by its frames' second difference:
   // frames 1.2-1.34 periods apart on a fast hand are mostly motion there, the radius opened
-  // by it and the network's lag behind a fast move went through for rows after it. Not at the model's rate, where FPHA's `paper` and 50 ms rows lost, nor on split
-  // intervals (20 Hz), where the Leap low-noise cells did (docs/STGAE.md "One stream on
-  // slow rows").
+  // by it and the network's lag behind a fast move went through for rows after it. Not at
+  // the model's rate, where FPHA's `paper` and 50 ms rows lost, nor on split intervals
+  // (20 Hz), where the Leap low-noise cells did (docs/STGAE.md "One stream on slow rows").
   static constexpr double kSlowRowsPeriods = 1.1;
   bool slow_rows() const noexcept {
     return phases_ == 1 && locked_ && split_ == 1 && lock_spacing_ > kSlowRowsPeriods * period_;

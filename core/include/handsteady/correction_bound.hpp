@@ -57,7 +57,8 @@ inline constexpr double kCorrectionShareFactor = 2.0;
 // whose measured noise is under this RMS (m). Heavier noise, such as the `paper` preset's
 // shifts (read as ~10 mm RMS at the fingertips), keeps the stream's own radius, which opens
 // to this row's second difference and so lets a one-row shift be taken back whole. Chosen
-// on the tuning split at 23.5 Hz (3 mm: `paper` +2.7 %; unlimited: +7.8 %).
+// on the tuning split at 23.5 Hz (an ad-hoc build: 3 mm `paper` +2.7 %, unlimited
+// +7.8 %).
 inline constexpr double kMeasuredNoiseMaxRms = 3e-3;
 // min(1, explained / mean2): the share of something of mean square `mean2` that a noise of
 // mean square `explained` accounts for (the correction here, the older stream's weight in
