@@ -239,23 +239,24 @@ TEST_CASE("with the noise measured too, a slow error of the network's own is shr
   CHECK(e_ans < 1.1 * e_raw);
 }
 
-TEST_CASE("measured noise over the limit keeps the stream's own radius: a one-row shift is taken back whole") {
+TEST_CASE("measured noise over the limit keeps the stream's own radius unless Gaussian in shape: a one-row shift is taken back whole") {
   // One stream on slow rows passes kMeasuredNoiseMaxRms: the `paper` preset's shifts read
   // as ~10 mm RMS of measured noise at the fingertips, where a radius of twice that held a
   // 40 mm shift 20 mm off; the stream's own radius opens to the row's second difference.
   const auto clean = frame_of(hs::test::synthetic_hand());
   const std::vector<double> jump(kJointCount, 0.0);  // a shift InputNoise did not call a jump
-  auto answer = [&](double noise_rms, double max_rms) {
+  auto answer = [&](double noise_rms, double max_rms, double shape = -1.0) {
     const std::vector<double> noise2(kJointCount, noise_rms * noise_rms);
+    const std::vector<double> shapes(shape < 0.0 ? 0 : kJointCount, shape);  // none: no shape given
     CorrectionBound b;
     for (int n = 0; n < 40; ++n) {
       auto path = clean;
-      b.apply(clean, path, noise2, jump, max_rms);
+      b.apply(clean, path, noise2, jump, max_rms, shapes);
     }
     auto x = clean;
     x[3 * 7 + 1] += 0.04f;  // joint 7 shifted 40 mm for one row
     auto path = clean;      // the network answers the clean hand
-    b.apply(x, path, noise2, jump, max_rms);
+    b.apply(x, path, noise2, jump, max_rms, shapes);
     return joint_dist(path, clean, 3 * 7);
   };
   const double limited = answer(0.01, hs::kMeasuredNoiseMaxRms), unlimited = answer(0.01, CorrectionBound::kUnlimitedRms);
@@ -265,6 +266,14 @@ TEST_CASE("measured noise over the limit keeps the stream's own radius: a one-ro
   CHECK(unlimited == doctest::Approx(0.02).epsilon(0.01));  // twice the noise: the measured radius
   // Under the limit the measured noise bounds as before: 1 mm RMS moves the joint 2 mm at most.
   CHECK(answer(0.001, hs::kMeasuredNoiseMaxRms) >= 0.04 - 0.002 - 1e-6);
+  // With the residuals' shape (K >= 2 streams, InputNoise::shapes): noise over the limit
+  // that is Gaussian in shape is large jitter, which the measured radius serves, and keeps
+  // it; a heavy tail (the `paper` shifts) keeps the stream's own.
+  const double gaussian = answer(0.01, hs::kMeasuredNoiseMaxRms, 1.0);
+  const double heavy = answer(0.01, hs::kMeasuredNoiseMaxRms, hs::kMeasuredNoiseMinShape - 0.05);
+  MESSAGE("with the shape: " << gaussian * 1e3 << " mm off when Gaussian, " << heavy * 1e3 << " mm when heavy-tailed");
+  CHECK(gaussian == doctest::Approx(0.02).epsilon(0.01));
+  CHECK(heavy < 1e-4);
 }
 
 TEST_CASE("constant offsets of the network, now and predicted, are taken out") {

@@ -1,8 +1,9 @@
 // The input's noise measured at the input rate (input_noise.hpp): white noise in full,
 // fast clean motion hardly at all, per-joint correlated noise through the bones, a row's
-// own jump, and a tracker's re-fit of a finger that keeps its bones and stays, which is
+// own jump, the residuals' shape (Gaussian or a heavy tail), and a tracker's re-fit of a finger that keeps its bones and stays, which is
 // followed; and through the adapter, a clean hand writing fast at 90 Hz is answered near
 // its input, not where the network would drag it, and a re-fitted finger is followed.
+#include "handsteady/correction_bound.hpp"
 #include "handsteady/input_noise.hpp"
 #include "handsteady/stgae_filter.hpp"
 #include "handsteady/stgae_model.hpp"
@@ -163,6 +164,63 @@ TEST_CASE("InputNoise: a row is a jump only beyond what the noise explains, and 
   CHECK(outliers_found >= 0.9 * outliers);
   CHECK(found_sum / outliers_found == doctest::Approx(0.03).epsilon(0.2));
   CHECK(inflation < 1.3);  // unclipped, each outlier's residuals would make it ~4 x
+}
+
+TEST_CASE("InputNoise: the residuals' shape tells Gaussian jitter and tremor from a heavy tail of shifts") {
+  // Where the measured noise is large, the trust region takes the measured radius only if
+  // the noise is Gaussian in shape (kMeasuredNoiseMinShape): the `paper` preset's shifts
+  // (a few rows a joint 10-50 mm off, the rest clean) read as ~10 mm of noise but want a
+  // radius that opens to the shift, which a radius of twice that RMS does not.
+  std::mt19937_64 rng(5);
+  const auto times = irregular_times(8.0, rng);
+  std::normal_distribution<double> white(0.0, 0.003), faint(0.0, 0.0003);
+  std::uniform_real_distribution<double> u01(0.0, 1.0), shift(-0.05, 0.05);
+  InputNoise gauss, depth, tremor, heavy;
+  double s_gauss = 0.0, s_depth = 0.0, s_tremor = 0.0, s_heavy = 0.0, n_heavy = 0.0;
+  int rows = 0, gauss_low = 0, heavy_high = 0;
+  for (size_t i = 0; i < times.size(); ++i) {
+    const double t = times[i];
+    const hs::Pose p = hs::test::writing_hand(t);
+    gauss.push(t, frame_of(hs::test::jittered(p, rng, white)));
+    // A camera's noise, mostly in depth: 4 mm along z.
+    hs::Pose z = p;
+    for (int j = 0; j < kJointCount; ++j) z(j, 2) += 0.004 / 0.003 * white(rng);
+    depth.push(t, frame_of(z));
+    // 5 Hz tremor of 4 mm along one axis, each joint at its own phase.
+    hs::Pose q = p;
+    for (int j = 0; j < kJointCount; ++j) q(j, 1) += 0.004 * std::sin(2.0 * M_PI * 5.0 * t + 0.4 * j);
+    tremor.push(t, frame_of(q));
+    // The `paper` preset's way: each joint shifted up to 50 mm per axis on 8 % of rows.
+    hs::Pose h = hs::test::jittered(p, rng, faint);
+    for (int j = 0; j < kJointCount; ++j)
+      if (u01(rng) < 0.08)
+        for (int c = 0; c < 3; ++c) h(j, c) += shift(rng);
+    heavy.push(t, frame_of(h));
+    if (i < 60) continue;
+    ++rows;
+    for (int j = 0; j < kJointCount; ++j) {
+      s_gauss += gauss.shape(j);
+      s_depth += depth.shape(j);
+      gauss_low += gauss.shape(j) < hs::kMeasuredNoiseMinShape;
+      gauss_low += depth.shape(j) < hs::kMeasuredNoiseMinShape;
+      heavy_high += heavy.shape(j) >= hs::kMeasuredNoiseMinShape;
+      s_tremor += tremor.shape(j);
+      s_heavy += heavy.shape(j);
+      n_heavy += heavy.noise2(j);
+    }
+  }
+  const double k = 1.0 / (rows * kJointCount);
+  MESSAGE("mean shape: 3 mm white jitter " << s_gauss * k << ", 4 mm along depth " << s_depth * k
+                                           << " (under the bar: " << 50.0 * gauss_low * k << " %), 4 mm tremor " << s_tremor * k << ", 8 % of rows shifted "
+                                           << s_heavy * k << " (measured noise " << std::sqrt(n_heavy * k) * 1e3 << " mm RMS; at or over the bar: "
+                                           << 100.0 * heavy_high * k << " %)");
+  CHECK(s_gauss * k == doctest::Approx(1.0).epsilon(0.1));
+  CHECK(s_depth * k == doctest::Approx(1.0).epsilon(0.1));
+  CHECK(gauss_low * k < 0.02);  // hardly a joint-row of Gaussian noise under the bar (0 when written)
+  CHECK(s_tremor * k > hs::kMeasuredNoiseMinShape + 0.1);
+  CHECK(std::sqrt(n_heavy * k) > hs::kMeasuredNoiseMaxRms);  // large: the shape decides
+  CHECK(s_heavy * k < hs::kMeasuredNoiseMinShape - 0.1);
+  CHECK(heavy_high * k < 0.4);  // 21 % when written
 }
 
 TEST_CASE("InputNoise: a joint that moves with its parent moved with the hand, one that leaves it jumped") {

@@ -897,3 +897,37 @@ TEST_CASE("PoseFilter adapter: one stream on rows slower than the model bounds i
   // network still lags a hand this fast at this rate, less than it did.
   CHECK(err < 1.15 * err_raw);
 }
+
+TEST_CASE("PoseFilter adapter: at 90 Hz shifts of a few joints a row keep a radius that opens to them") {
+  // The `paper` preset's way of corrupting (each row, a few joints shifted up to 50 mm per
+  // axis): the noise measured on the rows reads the shifts as ~5-10 mm RMS, mostly under
+  // the jump bar, and a radius of twice that held a shifted joint up to 20 mm off. Their
+  // residuals' shape is no Gaussian's (InputNoise::shape), so such joints keep the stream's
+  // own radius, which opens to the row's second difference.
+  const auto model = hs::test::shipped_model();
+  std::mt19937_64 rng(90);
+  std::uniform_real_distribution<double> u(0.9, 1.1), u01(0.0, 1.0), shift(-0.05, 0.05);
+  std::normal_distribution<double> noise(0.0, 0.0003);
+  auto f = hs::make_stgae_filter(model, 0.0, 0, true);
+  double err = 0.0, err_raw = 0.0;
+  int n = 0;
+  hs::Pose out;
+  for (double t = 0.0; t < 10.0; t += u(rng) / 90.0) {
+    const hs::Pose truth = hs::test::writing_hand(t);
+    hs::Pose in = hs::test::jittered(truth, rng, noise);
+    for (int j = 0; j < hs::kJointCount; ++j)
+      if (u01(rng) < 0.08)
+        for (int c = 0; c < 3; ++c) in(j, c) += shift(rng);
+    f->push(t, in);
+    if (t < 1.0) continue;
+    f->estimate(t, out);
+    err += (out - truth).rowwise().norm().mean();
+    err_raw += (in - truth).rowwise().norm().mean();
+    ++n;
+  }
+  MESSAGE("90 Hz, 8 % of joint-rows shifted up to 50 mm per axis: mean joint error " << err / n * 1e3 << " mm, raw "
+                                                                                    << err_raw / n * 1e3 << " mm");
+  // 0.335 x raw's when written, 0.378 x with the measured radius on every joint (as before
+  // 2026-12-05: a temporary edit).
+  CHECK(err < 0.36 * err_raw);
+}

@@ -172,7 +172,9 @@ Eigen::Vector3d CorrectionBound::blended(size_t f, size_t j, const Eigen::Vector
 }
 
 void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std::span<const double> noise2,
-                            std::span<const double> jump, double measured_max_rms) noexcept {
+                            std::span<const double> jump, double measured_max_rms,
+                            std::span<const double> shape) noexcept {
+  const bool have_shape = shape.size() >= kJointCount;
   const bool have_measured = noise2.size() >= kJointCount && jump.size() >= kJointCount;
   const auto gain_from = static_cast<size_t>(have_measured ? kPredictionGainFirstFrameMeasured : kPredictionGainFirstFrame);
   const auto F = static_cast<size_t>(frames_);
@@ -200,7 +202,8 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std
     // The noise radius is the history's: this frame's own second difference only widens
     // the radius (an outlier is taken back) and does not yet count as noise.
     const double s = std::sqrt(rough_[ju]);  // RMS second difference
-    const bool measured = have_measured && noise2[ju] <= measured_max_rms * measured_max_rms;
+    const bool measured = have_measured && (noise2[ju] <= measured_max_rms * measured_max_rms ||
+                                            (have_shape && shape[ju] >= kMeasuredNoiseMinShape));
     const double noise_r = measured ? kMeasuredNoiseFactor * std::sqrt(noise2[ju]) : kCorrectionNoiseFactor * s / std::sqrt(6.0);
     double a = 0.0;  // |second difference| now, when the joint was seen in the two frames before
     if (have2) {

@@ -14,6 +14,8 @@ Eigen::Vector3d at(const float* p) noexcept { return Eigen::Vector3f(p[0], p[1],
 // The largest noise gain of an extrapolation still used: 1 + 3^2 + 3^2 + 1 = 20 on a
 // regular grid, 44 when the oldest interval is half the others.
 constexpr double kMaxGain2 = 200.0;
+// (E|n|)^2 / E n^2 of a Gaussian along any axis: 2 / pi.
+constexpr double kGaussianAbs2 = 2.0 / 3.14159265358979323846;
 // The joint a jump is judged against: its parent, the wrist's the palm. Joints are judged
 // parents first (kXrParentFirst), so a reference has been judged before its joint, except
 // the palm before the wrist: the wrist (judged first) is weighed against the palm's
@@ -46,6 +48,9 @@ void InputNoise::reset() noexcept {
   moved_.fill(false);
   follow_.fill(0);
   before_smooth2_.fill(0.0);
+  smooth_abs_.fill(0.0);
+  before_abs_.fill(0.0);
+  shape_.fill(1.0);
   before_n_.fill(0);
   before_held_.fill(0);
   aside_.fill(0);
@@ -144,6 +149,7 @@ void InputNoise::push(double t, std::span<const float> x) noexcept {
     // Leap recording, and the trust region let the network hold the old thumb for rows).
     if (confirmed_last && follow_[ju] > 0 && stays(0, 2)) {
       smooth2_[ju] = before_smooth2_[ju];
+      std::copy_n(before_abs_.begin() + 3 * ju, 3, smooth_abs_.begin() + 3 * ju);
       smooth_n_[ju] = before_n_[ju];
       held_[ju] = before_held_[ju];
       aside_[ju] = follow_[ju];
@@ -151,6 +157,7 @@ void InputNoise::push(double t, std::span<const float> x) noexcept {
     const bool may_refit = jumped && !strained[ju] && follow_[ju] == 0;
     if (may_refit) {
       before_smooth2_[ju] = smooth2_[ju];
+      std::copy_n(smooth_abs_.begin() + 3 * ju, 3, before_abs_.begin() + 3 * ju);
       before_n_[ju] = smooth_n_[ju];
       before_held_[ju] = held_[ju];
     }
@@ -166,7 +173,14 @@ void InputNoise::push(double t, std::span<const float> x) noexcept {
     }
     if (!suspect) held_[ju] = 0;
     const double sample = std::min(r2 / gain2, clip_bound2(smooth2_[ju], smooth_n_[ju]));
-    smooth2_[ju] += running_weight(smooth_n_[ju], kInputNoiseRows) * (sample - smooth2_[ju]);
+    const double w = running_weight(smooth_n_[ju], kInputNoiseRows);
+    smooth2_[ju] += w * (sample - smooth2_[ju]);
+    // Per axis, the residual scaled as the sample was (clipped as a whole).
+    const double scale = r2 > 0.0 ? std::sqrt(sample / r2) : 0.0;
+    for (Eigen::Index c = 0; c < 3; ++c) {
+      double& mean = smooth_abs_[3 * ju + static_cast<size_t>(c)];
+      mean += w * (scale * std::abs(res[ju][c]) - mean);
+    }
   }
   // A rigid move is a chain's: a candidate whose parent and children all stayed is one
   // joint off on its own (an outlier that happened to keep its bone's length).
@@ -199,7 +213,11 @@ void InputNoise::push(double t, std::span<const float> x) noexcept {
   }
   // A bone's length varies by the noise of both ends along it: 2 sigma^2 per axis with
   // sigma each; E|n|^2 = 3 sigma^2 = 1.5 times that variance.
-  for (size_t j = 0; j < kJointCount; ++j) noise2_[j] = std::max(smooth2_[j], 1.5 * bone_var_[j]);
+  for (size_t j = 0; j < kJointCount; ++j) {
+    noise2_[j] = std::max(smooth2_[j], 1.5 * bone_var_[j]);
+    const double* a = smooth_abs_.data() + 3 * j;
+    shape_[j] = smooth2_[j] > 0.0 ? (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]) / (kGaussianAbs2 * smooth2_[j]) : 1.0;
+  }
   rows_[2] = rows_[1];
   rows_[1] = rows_[0];
   std::copy(x.begin(), x.begin() + static_cast<std::ptrdiff_t>(kFs), rows_[0].begin());

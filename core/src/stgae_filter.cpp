@@ -441,9 +441,12 @@ class StgaeFilter final : public PoseFilter {
     if (bounded_) {
       // Input faster than the model: its rows measure the noise apart from the motion
       // (InputNoise); at the model's rate there is nothing finer than the stream's frames.
-      // One stream on rows slower than the model reads them too (slow_rows).
+      // One stream on rows slower than the model reads them too (slow_rows). Joints whose
+      // measured noise is over kMeasuredNoiseMaxRms keep the stream's own radius, at K >= 2
+      // streams only where that noise is no Gaussian in shape (the `paper` preset's shifts;
+      // docs/STGAE.md "Heavy-tailed noise at K >= 2 streams").
       auto& bound = bounds_[static_cast<size_t>(phase)];
-      if (phases_ >= 2) bound.apply(frame, o.path, noise_.noise2(), noise_.jumps());
+      if (phases_ >= 2) bound.apply(frame, o.path, noise_.noise2(), noise_.jumps(), kMeasuredNoiseMaxRms, noise_.shapes());
       else if (slow_rows()) bound.apply(frame, o.path, noise_.noise2(), noise_.jumps(), kMeasuredNoiseMaxRms);
       else bound.apply(frame, o.path);
     }

@@ -52,14 +52,21 @@ inline constexpr double kMeasuredNoiseFactor = 2.0;
 // factors were chosen on the tuning split, at 30 Hz for one stream (docs/STGAE.md "Trust
 // region", "One stream: the correction's own correlation").
 inline constexpr double kCorrectionShareFactor = 2.0;
-// One stream on rows slower than the model (StgaeFilter, docs/STGAE.md "One stream on slow
-// rows"): the noise measured on its rows stands in for the stream's own only on joints
-// whose measured noise is under this RMS (m). Heavier noise, such as the `paper` preset's
-// shifts (read as ~10 mm RMS at the fingertips), keeps the stream's own radius, which opens
-// to this row's second difference and so lets a one-row shift be taken back whole. Chosen
-// on the tuning split at 23.5 Hz (an ad-hoc build: 3 mm `paper` +2.7 %, unlimited
-// +7.8 %).
+// Joints whose measured noise is over this RMS (m) keep the stream's own radius and
+// shrink, which open to the row's second difference and so let a one-row shift be taken
+// back whole: the `paper` preset's shifts (10-50 mm on a few joints a row) read as ~10 mm
+// RMS at the fingertips, mostly under the jump threshold, and a radius of twice that held
+// a 40 mm shift 20 mm off. One stream on rows slower than the model (StgaeFilter, docs/
+// STGAE.md "One stream on slow rows") passes it alone; chosen on the tuning split at 23.5 Hz
+// (an ad-hoc build: 3 mm `paper` +2.7 %, unlimited +7.8 %).
 inline constexpr double kMeasuredNoiseMaxRms = 3e-3;
+// K >= 2 streams pass it with the residuals' shape (InputNoise::shapes): a joint over the
+// limit whose shape is at least this is Gaussian noise of that size (white, correlated,
+// tremor: shape ~1 or over), which the measured radius serves; a heavy tail (`paper`:
+// ~0.5) keeps the stream's own. Without the shape the limit took Gaussian 1.5-5 mm cells
+// up to 3.1 % further; with it at 0.75 none by 0.5 % at 90 Hz, `paper` 11-22 % closer
+// (docs/STGAE.md "Heavy-tailed noise at K >= 2 streams").
+inline constexpr double kMeasuredNoiseMinShape = 0.75;
 // min(1, explained / mean2): the share of something of mean square `mean2` that a noise of
 // mean square `explained` accounts for (the correction here, the older stream's weight in
 // the adapter).
@@ -124,8 +131,11 @@ class CorrectionBound {
   // the correction is first shrunk to the share of it that noise explains.
   // Joints whose measured noise is over `measured_max_rms` (m) keep the stream's own
   // radius and shrink (one stream on slow rows: kMeasuredNoiseMaxRms).
+  // With `shape` (InputNoise::shapes), such joints whose noise is Gaussian in shape
+  // (at least kMeasuredNoiseMinShape) take the measured radius all the same.
   void apply(std::span<const float> x, std::span<float> path, std::span<const double> noise2,
-             std::span<const double> jump, double measured_max_rms = kUnlimitedRms) noexcept;
+             std::span<const double> jump, double measured_max_rms = kUnlimitedRms,
+             std::span<const double> shape = {}) noexcept;
   static constexpr double kUnlimitedRms = 1e9;
   int frames() const noexcept { return frames_; }
   // The radius of joint j after the last apply (m); infinity when it was not bound.

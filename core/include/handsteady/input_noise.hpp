@@ -10,8 +10,9 @@
 // The estimate is the larger of the two: E|n|^2 of the joint, m^2. A row far off the
 // quadratic is a jump (an outlier), held out of both with the rows it spoils, unless the
 // joint moved with its parent: fast motion moves a finger, an outlier one joint; a jump
-// that keeps the bones and stays is followed from its second row. Per hand,
-// per input row, no allocation, noexcept. docs/STGAE.md "Trust region".
+// that keeps the bones and stays is followed from its second row. The smoothness residuals'
+// shape tells Gaussian noise from a heavy tail of shifts that no jump bar catches. Per
+// hand, per input row, no allocation, noexcept. docs/STGAE.md "Trust region".
 #include "handsteady/skeleton.hpp"
 
 #include <array>
@@ -69,6 +70,13 @@ class InputNoise {
   // Both for every joint (what CorrectionBound::apply takes).
   std::span<const double> noise2() const noexcept { return noise2_; }
   std::span<const double> jumps() const noexcept { return jump_; }
+  // The shape of joint j's smoothness residuals: the sum over axes of (E|r_axis|)^2 over
+  // 2 / pi times E|r|^2, 1 for Gaussian jitter of any covariance (white or correlated,
+  // isotropic or mostly in depth), over 1 for tremor, well under 1 for a heavy tail (most
+  // rows clean, a few shifted far: the `paper` preset), whose mean square the few rows
+  // make. 1 before any evidence.
+  double shape(int j) const noexcept { return shape_[static_cast<size_t>(j)]; }
+  std::span<const double> shapes() const noexcept { return shape_; }
 
  private:
   static constexpr size_t kFs = 3 * kJointCount;
@@ -76,6 +84,11 @@ class InputNoise {
   std::array<double, 3> t_{};
   int have_ = 0;                                  // rows in rows_
   std::array<double, kJointCount> smooth2_{}, bone_mean_{}, bone_var_{}, jump_{}, noise2_{};
+  std::array<double, kJointCount> shape_ = [] {
+    std::array<double, kJointCount> a{};
+    a.fill(1.0);
+    return a;
+  }();
   std::array<int, kJointCount> smooth_n_{}, bone_n_{};
   std::array<int, kJointCount> taint_{};  // rows still to come whose quadratic runs through a jump
   std::array<int, kJointCount> held_{};   // residuals held out in a row
@@ -88,6 +101,8 @@ class InputNoise {
   // jump that may be a re-fit (taken back if it stays a second row); rows a re-fit that
   // stayed still spoils, held out of the run.
   std::array<double, kJointCount> before_smooth2_{};
+  // Per axis, the running mean of |residual| (the shape's numerator), and before the last jump.
+  std::array<double, kFs> smooth_abs_{}, before_abs_{};
   std::array<int, kJointCount> before_n_{}, before_held_{}, aside_{};
 };
 
