@@ -1,7 +1,7 @@
 // The input's noise measured at the input rate (input_noise.hpp): white noise in full,
 // fast clean motion hardly at all, per-joint correlated noise through the bones, a row's
-// own jump, the residuals' shape (Gaussian or a heavy tail), and a tracker's re-fit of a finger that keeps its bones and stays, which is
-// followed; and through the adapter, a clean hand writing fast at 90 Hz is answered near
+// own jump, the residuals' shape (Gaussian or a heavy tail), and a tracker's re-fit of a
+// finger that keeps its bones and stays, which is followed; and through the adapter, a clean hand writing fast at 90 Hz is answered near
 // its input, not where the network would drag it, and a re-fitted finger is followed.
 #include "handsteady/correction_bound.hpp"
 #include "handsteady/input_noise.hpp"
@@ -13,6 +13,7 @@
 #include <Eigen/Geometry>
 
 #include <cmath>
+#include <numbers>
 #include <random>
 #include <vector>
 
@@ -174,7 +175,6 @@ TEST_CASE("InputNoise: the residuals' shape tells Gaussian jitter and tremor fro
   std::mt19937_64 rng(5);
   const auto times = irregular_times(8.0, rng);
   std::normal_distribution<double> white(0.0, 0.003), faint(0.0, 0.0003);
-  std::uniform_real_distribution<double> u01(0.0, 1.0), shift(-0.05, 0.05);
   InputNoise gauss, depth, tremor, heavy;
   double s_gauss = 0.0, s_depth = 0.0, s_tremor = 0.0, s_heavy = 0.0, n_heavy = 0.0;
   int rows = 0, gauss_low = 0, heavy_high = 0;
@@ -188,14 +188,10 @@ TEST_CASE("InputNoise: the residuals' shape tells Gaussian jitter and tremor fro
     depth.push(t, frame_of(z));
     // 5 Hz tremor of 4 mm along one axis, each joint at its own phase.
     hs::Pose q = p;
-    for (int j = 0; j < kJointCount; ++j) q(j, 1) += 0.004 * std::sin(2.0 * M_PI * 5.0 * t + 0.4 * j);
+    for (int j = 0; j < kJointCount; ++j) q(j, 1) += 0.004 * std::sin(2.0 * std::numbers::pi * 5.0 * t + 0.4 * j);
     tremor.push(t, frame_of(q));
     // The `paper` preset's way: each joint shifted up to 50 mm per axis on 8 % of rows.
-    hs::Pose h = hs::test::jittered(p, rng, faint);
-    for (int j = 0; j < kJointCount; ++j)
-      if (u01(rng) < 0.08)
-        for (int c = 0; c < 3; ++c) h(j, c) += shift(rng);
-    heavy.push(t, frame_of(h));
+    heavy.push(t, frame_of(hs::test::shifted(hs::test::jittered(p, rng, faint), rng, 0.08, 0.05)));
     if (i < 60) continue;
     ++rows;
     for (int j = 0; j < kJointCount; ++j) {
@@ -210,9 +206,10 @@ TEST_CASE("InputNoise: the residuals' shape tells Gaussian jitter and tremor fro
     }
   }
   const double k = 1.0 / (rows * kJointCount);
-  MESSAGE("mean shape: 3 mm white jitter " << s_gauss * k << ", 4 mm along depth " << s_depth * k
-                                           << " (under the bar: " << 50.0 * gauss_low * k << " %), 4 mm tremor " << s_tremor * k << ", 8 % of rows shifted "
-                                           << s_heavy * k << " (measured noise " << std::sqrt(n_heavy * k) * 1e3 << " mm RMS; at or over the bar: "
+  MESSAGE("mean shape: 3 mm white jitter " << s_gauss * k << ", 4 mm along depth " << s_depth * k << " (under the bar: "
+                                           << 50.0 * gauss_low * k << " %), 4 mm tremor " << s_tremor * k
+                                           << ", 8 % of rows shifted " << s_heavy * k << " (measured noise "
+                                           << std::sqrt(n_heavy * k) * 1e3 << " mm RMS; at or over the bar: "
                                            << 100.0 * heavy_high * k << " %)");
   CHECK(s_gauss * k == doctest::Approx(1.0).epsilon(0.1));
   CHECK(s_depth * k == doctest::Approx(1.0).epsilon(0.1));

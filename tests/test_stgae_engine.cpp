@@ -923,15 +923,10 @@ TEST_CASE("PoseFilter adapter: at 90 Hz shifts of a few joints a row keep a radi
   // own radius, which opens to the row's second difference.
   const auto model = hs::test::shipped_model();
   std::mt19937_64 rng(90);
-  std::uniform_real_distribution<double> u01(0.0, 1.0), shift(-0.05, 0.05);
   std::normal_distribution<double> noise(0.0, 0.0003);
   auto f = hs::make_stgae_filter(model, 0.0, 0, true);
   const auto e = errors_vs_raw(*f, 10.0, 90.0, rng, hs::test::writing_hand, [&](const hs::Pose& truth) {
-    hs::Pose in = hs::test::jittered(truth, rng, noise);
-    for (int j = 0; j < hs::kJointCount; ++j)
-      if (u01(rng) < 0.08)
-        for (int c = 0; c < 3; ++c) in(j, c) += shift(rng);
-    return in;
+    return hs::test::shifted(hs::test::jittered(truth, rng, noise), rng, 0.08, 0.05);
   });
   MESSAGE("90 Hz, 8 % of joint-rows shifted up to 50 mm per axis: mean joint error " << e.filter * 1e3 << " mm, raw "
                                                                                     << e.raw * 1e3 << " mm");

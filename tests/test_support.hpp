@@ -75,6 +75,16 @@ inline Pose jittered(Pose p, std::mt19937_64& rng, std::normal_distribution<doub
   return p;
 }
 
+// p with each joint, at probability `share`, shifted by up to `reach` (m) along each axis
+// (uniform): the `paper` preset's way of corrupting, a heavy tail of far rows on clean ones.
+inline Pose shifted(Pose p, std::mt19937_64& rng, double share, double reach) {
+  std::uniform_real_distribution<double> u01(0.0, 1.0), shift(-reach, reach);
+  for (int j = 0; j < kJointCount; ++j)
+    if (u01(rng) < share)
+      for (int c = 0; c < 3; ++c) p(j, c) += shift(rng);
+  return p;
+}
+
 // Every directory temp_dir made is removed when the test process exits (also those kept
 // for the whole run, such as generated fixtures), so repeated runs do not fill /tmp.
 // HANDSTEADY_KEEP_TEST_FILES=1 keeps them for a look after a failure.

@@ -177,10 +177,8 @@ void InputNoise::push(double t, std::span<const float> x) noexcept {
     smooth2_[ju] += w * (sample - smooth2_[ju]);
     // Per axis, the residual scaled as the sample was (clipped as a whole).
     const double scale = r2 > 0.0 ? std::sqrt(sample / r2) : 0.0;
-    for (Eigen::Index c = 0; c < 3; ++c) {
-      double& mean = smooth_abs_[3 * ju + static_cast<size_t>(c)];
-      mean += w * (scale * std::abs(res[ju][c]) - mean);
-    }
+    Eigen::Map<Eigen::Vector3d> abs_mean(smooth_abs_.data() + 3 * ju);
+    abs_mean += w * (scale * res[ju].cwiseAbs() - abs_mean);
   }
   // A rigid move is a chain's: a candidate whose parent and children all stayed is one
   // joint off on its own (an outlier that happened to keep its bone's length).
@@ -215,8 +213,8 @@ void InputNoise::push(double t, std::span<const float> x) noexcept {
   // sigma each; E|n|^2 = 3 sigma^2 = 1.5 times that variance.
   for (size_t j = 0; j < kJointCount; ++j) {
     noise2_[j] = std::max(smooth2_[j], 1.5 * bone_var_[j]);
-    const double* a = smooth_abs_.data() + 3 * j;
-    shape_[j] = smooth2_[j] > 0.0 ? (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]) / (kGaussianAbs2 * smooth2_[j]) : 1.0;
+    const double abs2 = Eigen::Map<const Eigen::Vector3d>(smooth_abs_.data() + 3 * j).squaredNorm();
+    shape_[j] = smooth2_[j] > 0.0 ? abs2 / (kGaussianAbs2 * smooth2_[j]) : 1.0;
   }
   rows_[2] = rows_[1];
   rows_[1] = rows_[0];
