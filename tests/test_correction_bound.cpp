@@ -482,6 +482,50 @@ TEST_CASE("predictions that fall behind a moving hand take the denoised velocity
   }
 }
 
+TEST_CASE("rows InputNoise calls jumps on a moving hand still teach the predictions where the hand went") {
+  // The test above with the noise measured, as on input faster or slower than the model:
+  // InputNoise measures 0.5 mm of jitter, and on rows slower than the model a swaying
+  // hand's rows leave their quadratic by more than that, so it calls each of them a jump
+  // (2 mm). The stream's own frames see no outlier (their second difference is the sway's
+  // and the jitter's), so the rows still say where the predictions went, and the blend takes
+  // the denoised velocity's share. Read as jumps they said nothing, and the predictions
+  // stayed as far behind as the network's.
+  const auto clean = frame_of(hs::test::synthetic_hand());
+  constexpr double kRate = 30.0;
+  constexpr int kStill = 90, kMoving = 180;
+  const std::vector<double> noise2(kJointCount, 3 * 0.0005 * 0.0005), calm(kJointCount, 0.0), jumps(kJointCount, 0.002);
+  CorrectionBound b(4);
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> noise(0.0, 0.0005);
+  std::array<double, 4> err{}, made{};  // per path frame, the last 4 s (m)
+  for (int n = 0; n < kStill + kMoving; ++n) {
+    auto truth_at = [&](int ahead) { return moved_x(clean, 0.04 * std::sin(M_PI * (std::max(n + ahead - kStill, 0) / kRate))); };
+    const auto now = truth_at(0);
+    const auto x = jittered_frame(now, rng, noise);
+    std::vector<float> path(4 * kFs);
+    for (size_t f = 0; f < 4; ++f) {
+      const auto ahead = truth_at(static_cast<int>(f));
+      for (size_t i = 0; i < kFs; ++i) path[f * kFs + i] = now[i] + 0.5f * (x[i] - now[i]) + 0.6f * (ahead[i] - now[i]);
+    }
+    const auto network = path;
+    b.apply(x, path, noise2, n < kStill ? calm : jumps);
+    if (n < kStill + 60) continue;
+    for (size_t f = 1; f < 4; ++f) {
+      const auto ahead = truth_at(static_cast<int>(f));
+      for (size_t i = 0; i < kFs; i += 3) {
+        err[f] += frame_off(path, f, ahead, i) / ((kMoving - 60.0) * kJointCount);
+        made[f] += frame_off(network, f, ahead, i) / ((kMoving - 60.0) * kJointCount);
+      }
+    }
+  }
+  for (size_t f = 1; f < 4; ++f) {
+    CAPTURE(f);
+    MESSAGE(f << " periods ahead, every moving row a jump to InputNoise: " << err[f] * 1e3
+              << " mm from the hand (the network's " << made[f] * 1e3 << " mm)");
+    CHECK(err[f] < 0.8 * made[f]);
+  }
+}
+
 TEST_CASE("clean motion at constant velocity: predictions are pulled onto the input's own line") {
   CorrectionBound b(5);
   const auto hand = frame_of(hs::test::synthetic_hand());

@@ -232,8 +232,11 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std
     const Eigen::Vector3d den = clamp_into(Eigen::Vector3d(xn + c), xn, r);
     store(den, dj);
     den_back(0, ju) = den;
-    // This row says where the displacements made before went, unless it is a jump.
-    const bool evidence = measured ? !(jump[ju] > 0.0) : !(a > kCorrectionNoiseFactor * s);
+    // This row says where the displacements made before went, unless it is an outlier of
+    // the stream's own frames. Not InputNoise's jumps, even where the noise is measured: a
+    // fast hand's rows leave their quadratic by more than the noise (on rows slower than
+    // the model most of a swipe's), and those are the rows the predictions must learn from.
+    const bool evidence = !(a > kCorrectionNoiseFactor * s);
     // Predicted frame f: the network's displacement less its mean excess over what the
     // input did in f frames, then within reach of constant velocity from the denoised
     // frame: one RMS of the velocity's noise (s / sqrt(3) per period) and of the recent
