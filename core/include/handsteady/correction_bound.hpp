@@ -133,6 +133,9 @@ class CorrectionBound {
   // radius and shrink (one stream on slow rows: kMeasuredNoiseMaxRms).
   // With `shape` (InputNoise::shapes), such joints whose noise is Gaussian in shape
   // (at least kMeasuredNoiseMinShape) take the measured radius all the same.
+  // Which rows teach the gain and the blend is the stream's own either way: any row
+  // whose second difference is no outlier of its frames' (InputNoise's jumps include a
+  // fast hand's rows, which the predictions must learn from most).
   void apply(std::span<const float> x, std::span<float> path, std::span<const double> noise2,
              std::span<const double> jump, double measured_max_rms = kUnlimitedRms,
              std::span<const double> shape = {}) noexcept;
