@@ -9,6 +9,7 @@
 #include <array>
 #include <cmath>
 #include <random>
+#include <utility>
 #include <vector>
 
 namespace {
@@ -439,30 +440,46 @@ TEST_CASE("with the noise measured at the input rate, a still hand's shake is ta
   CHECK(stray[1] < 0.6 * stray[0]);
 }
 
-TEST_CASE("predictions that fall behind a moving hand take the denoised velocity's share, a still hand's gets none") {
-  // 30 Hz, 0.5 mm of white jitter. The network takes out half of the jitter and predicts
-  // only 60 % of each displacement. For 3 s the hand is still (the denoised velocity is what is left of
-  // the noise), then it sways 4 cm along x at 0.5 Hz (up to 2 mm a period).
-  CorrectionBound b(4);
-  const auto clean = frame_of(hs::test::synthetic_hand());
-  std::mt19937_64 rng(5);
-  std::normal_distribution<double> noise(0.0, 0.0005);
-  constexpr double kRate = 30.0;
-  constexpr int kStill = 90, kMoving = 180;
-  std::array<double, 4> still_err{}, err{}, made{};  // per path frame (m)
-  for (int n = 0; n < kStill + kMoving; ++n) {
-    auto truth_at = [&](int ahead) { return moved_x(clean, 0.04 * std::sin(M_PI * (std::max(n + ahead - kStill, 0) / kRate))); };
-    const auto now = truth_at(0);
-    const auto x = jittered_frame(now, rng, noise);
+namespace {
+// The hand of the two tests below, row n at 30 Hz: still for kStill rows, then swaying 4 cm
+// along x at 0.5 Hz (up to 2 mm a period); its input with 0.5 mm of white jitter, and a
+// network that takes out half of the jitter and predicts only 60 % of each displacement.
+struct SwayingHand {
+  static constexpr double kRate = 30.0;
+  static constexpr int kStill = 90, kMoving = 180;
+  std::vector<float> clean = frame_of(hs::test::synthetic_hand());
+  std::mt19937_64 rng{5};
+  std::normal_distribution<double> noise{0.0, 0.0005};
+  std::vector<float> truth(int n) const {
+    return moved_x(clean, 0.04 * std::sin(M_PI * (std::max(n - kStill, 0) / kRate)));
+  }
+  // Row n's input and the network's path for it (4 frames).
+  std::pair<std::vector<float>, std::vector<float>> row(int n) {
+    const auto now = truth(n);
+    auto x = jittered_frame(now, rng, noise);
     std::vector<float> path(4 * kFs);
     for (size_t f = 0; f < 4; ++f) {
-      const auto ahead = truth_at(static_cast<int>(f));
+      const auto ahead = truth(n + static_cast<int>(f));
       for (size_t i = 0; i < kFs; ++i) path[f * kFs + i] = now[i] + 0.5f * (x[i] - now[i]) + 0.6f * (ahead[i] - now[i]);
     }
+    return {std::move(x), std::move(path)};
+  }
+};
+}  // namespace
+
+TEST_CASE("predictions that fall behind a moving hand take the denoised velocity's share, a still hand's gets none") {
+  // SwayingHand: for 3 s the hand is still (the denoised velocity is what is left of the
+  // noise), then it sways.
+  CorrectionBound b(4);
+  SwayingHand hand;
+  constexpr int kStill = SwayingHand::kStill, kMoving = SwayingHand::kMoving;
+  std::array<double, 4> still_err{}, err{}, made{};  // per path frame (m)
+  for (int n = 0; n < kStill + kMoving; ++n) {
+    auto [x, path] = hand.row(n);
     const auto network = path;
     b.apply(x, path);
     for (size_t f = 1; f < 4; ++f) {
-      const auto ahead = truth_at(static_cast<int>(f));
+      const auto ahead = hand.truth(n + static_cast<int>(f));
       for (size_t i = 0; i < kFs; i += 3) {
         // Still: how far the prediction strays from the denoised frame (the velocity forecast alone: ~0.5 mm a period).
         if (n >= kStill - 30 - 3 && n < kStill - 3) still_err[f] += frame_off(path, f, path, i) / (30.0 * kJointCount);
@@ -490,28 +507,18 @@ TEST_CASE("rows InputNoise calls jumps on a moving hand still teach the predicti
   // and the jitter's), so the rows still say where the predictions went, and the blend takes
   // the denoised velocity's share. Read as jumps they said nothing, and the predictions
   // stayed as far behind as the network's.
-  const auto clean = frame_of(hs::test::synthetic_hand());
-  constexpr double kRate = 30.0;
-  constexpr int kStill = 90, kMoving = 180;
   const std::vector<double> noise2(kJointCount, 3 * 0.0005 * 0.0005), calm(kJointCount, 0.0), jumps(kJointCount, 0.002);
   CorrectionBound b(4);
-  std::mt19937_64 rng(5);
-  std::normal_distribution<double> noise(0.0, 0.0005);
+  SwayingHand hand;
+  constexpr int kStill = SwayingHand::kStill, kMoving = SwayingHand::kMoving;
   std::array<double, 4> err{}, made{};  // per path frame, the last 4 s (m)
   for (int n = 0; n < kStill + kMoving; ++n) {
-    auto truth_at = [&](int ahead) { return moved_x(clean, 0.04 * std::sin(M_PI * (std::max(n + ahead - kStill, 0) / kRate))); };
-    const auto now = truth_at(0);
-    const auto x = jittered_frame(now, rng, noise);
-    std::vector<float> path(4 * kFs);
-    for (size_t f = 0; f < 4; ++f) {
-      const auto ahead = truth_at(static_cast<int>(f));
-      for (size_t i = 0; i < kFs; ++i) path[f * kFs + i] = now[i] + 0.5f * (x[i] - now[i]) + 0.6f * (ahead[i] - now[i]);
-    }
+    auto [x, path] = hand.row(n);
     const auto network = path;
     b.apply(x, path, noise2, n < kStill ? calm : jumps);
     if (n < kStill + 60) continue;
     for (size_t f = 1; f < 4; ++f) {
-      const auto ahead = truth_at(static_cast<int>(f));
+      const auto ahead = hand.truth(n + static_cast<int>(f));
       for (size_t i = 0; i < kFs; i += 3) {
         err[f] += frame_off(path, f, ahead, i) / ((kMoving - 60.0) * kJointCount);
         made[f] += frame_off(network, f, ahead, i) / ((kMoving - 60.0) * kJointCount);
