@@ -51,7 +51,28 @@ void write_text(const fs::path& path, const std::string& text) {
   if (!f) throw InputError({path.string(), 0, "--out"}, "cannot write");
 }
 
+// The --model specs as (label, files), before any data is read. A label names one row of
+// every table: two models under one label would be two rows no reader could tell apart.
+std::vector<std::pair<std::string, fs::path>> model_specs(const BenchmarkOptions& o) {
+  std::vector<std::pair<std::string, fs::path>> model_files;
+  for (const auto& spec : o.models) {
+    const auto eq = spec.find('=');
+    if (eq == std::string::npos || eq == 0) throw InputError({"", 0, "--model"}, "expects LABEL=FILE.hsm, got '" + spec + "'");
+    std::string label = spec.substr(0, eq);
+    for (const auto& [seen, file] : model_files)
+      if (seen == label) throw InputError({"", 0, "--model"}, "the label '" + label + "' is given twice; each model needs its own");
+    if (!o.no_default_model && (label == "multistgae" || label == "stgae" || label == "dgn"))
+      throw InputError({"", 0, "--model"}, "the label '" + label +
+                                               "' is a shipped model's; name this model otherwise, or pass --no-default-model");
+    for (const auto& m : bench::classical_methods({}))
+      if (m.name == label) throw InputError({"", 0, "--model"}, "the label '" + label + "' is a baseline's; name this model otherwise");
+    model_files.emplace_back(std::move(label), spec.substr(eq + 1));
+  }
+  return model_files;
+}
+
 void run_benchmark(const BenchmarkOptions& o, const std::string& command) {
+  auto model_files = model_specs(o);
   if (!fs::is_directory(o.data)) throw InputError({o.data, 0, "--data"}, "not a folder (the shared recordings)");
   const auto t_start = std::chrono::steady_clock::now();
   bench::Report report;
@@ -86,12 +107,6 @@ void run_benchmark(const BenchmarkOptions& o, const std::string& command) {
   report.notes.push_back("synth-handwriting skipped: built without libhersheyfont-dev");
 #endif
   bench::use_rate(sets, o.run.rate_hz);
-  std::vector<std::pair<std::string, fs::path>> model_files;
-  for (const auto& spec : o.models) {
-    const auto eq = spec.find('=');
-    if (eq == std::string::npos || eq == 0) throw InputError({"", 0, "--model"}, "expects LABEL=FILE.hsm, got '" + spec + "'");
-    model_files.emplace_back(spec.substr(0, eq), spec.substr(eq + 1));
-  }
   if (!o.no_default_model) {
     // The shipped models of every family, so that one run compares them all.
     for (const auto& [label, file] : {std::pair{"multistgae", kDefaultModelFile}, std::pair{"stgae", kStgaeModelFile},
@@ -167,6 +182,9 @@ void run_benchmark(const BenchmarkOptions& o, const std::string& command) {
                              }});
     methods.insert(methods.begin() + classical, cancelled.begin(), cancelled.end());
   }
+  for (auto m = methods.begin(); m != methods.end(); ++m)  // a label like "raw", or "A-nobonefit" beside --bone-fit
+    if (std::any_of(methods.begin(), m, [&](const bench::Method& e) { return e.name == m->name; }))
+      throw InputError({"", 0, "--model"}, "two rows would be named '" + m->name + "'; give the model another label");
   bench::run_grid(sets, methods, run, report);
   report.total_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
   fs::create_directories(o.out);
@@ -182,7 +200,7 @@ void setup_benchmark(CLI::App& app) {
   auto* sub = app.add_subcommand("benchmark", "Score filters and models on the project's fixed, seeded grid (docs/BENCHMARK.md)");
   sub->add_option("--data", o->data, "The shared recordings folder")->capture_default_str();
   sub->add_option("--out", o->out, "Folder for benchmark.md, benchmark.json, curve.csv")->required();
-  sub->add_option("--model", o->models, "LABEL=FILE.hsm, a causal model to score (repeatable); LABEL=A.hsm+B.hsm: models at different frame rates, "
+  sub->add_option("--model", o->models, "LABEL=FILE.hsm, a causal model to score (repeatable; each its own label, none a shipped model's or a baseline's); LABEL=A.hsm+B.hsm: models at different frame rates, "
                 "each input run by the one whose rate suits it (docs/STGAE.md \"Models by input rate\")");
   sub->add_flag("--quiet", o->quiet, "No progress lines on stderr (stages, and the scoring every 10 %)");
   sub->add_flag("--no-default-model", o->no_default_model, "Do not add the shipped models (labels multistgae, stgae, dgn)");

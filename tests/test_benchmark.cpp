@@ -396,6 +396,26 @@ TEST_CASE("the recordings-without-truth criterion compares a model with One Euro
   CHECK_MESSAGE(fail.find("rec vs oneeuro at 4.0 ms") != std::string::npos, fail);
 }
 
+TEST_CASE("handsteady benchmark refuses two models under one label before reading any data") {
+  const auto dir = test::temp_dir("benchmark_labels");
+  const std::string err = (dir / "err.txt").string();
+  const auto refused = [&](const std::string& models) {
+    // --data names no folder: the labels are checked first, so the message is theirs.
+    const int rc = test::run_cli("benchmark --data /nonexistent --out \"" + dir.string() + "\" " + models + " 2> \"" + err + "\"");
+    return rc != 0 ? slurp(err) : std::string("exit status 0");
+  };
+  CHECK_MESSAGE(refused("--no-default-model --model a=x.hsm --model a=y.hsm").find("'a' is given twice") != std::string::npos,
+                slurp(err));
+  CHECK_MESSAGE(refused("--model multistgae=x.hsm").find("'multistgae' is a shipped model's") != std::string::npos, slurp(err));
+  CHECK_MESSAGE(refused("--no-default-model --model kalman=x.hsm").find("'kalman' is a baseline's") != std::string::npos,
+                slurp(err));
+  // The case each differs from: distinct labels pass the check and meet the missing folder.
+  CHECK_MESSAGE(refused("--no-default-model --model a=x.hsm --model b=y.hsm").find("/nonexistent") != std::string::npos,
+                slurp(err));
+  CHECK_MESSAGE(refused("--no-default-model --model multistgae=x.hsm").find("/nonexistent") != std::string::npos, slurp(err));
+  std::filesystem::remove_all(dir);
+}
+
 TEST_CASE("handsteady benchmark --quick on the shared recordings writes the report") {
   HS_SKIP_WITHOUT_SHARED_DATA();
   if (HS_SANITIZED) {
