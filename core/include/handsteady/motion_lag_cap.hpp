@@ -7,8 +7,9 @@
 // kMotionCapSpeedZ times what the input's noise explains of such a step, the correction's
 // component along that step is held to kMotionCapFactor times the noise's RMS; across it,
 // and on slower joints, nothing changes. Needs the noise measured at the input rate
-// (InputNoise: input faster than the model). Rows that are jumps (outliers) keep their
-// correction. Per hand, no allocation, noexcept.
+// (InputNoise: input faster than the model). On a row InputNoise calls a jump the cap acts
+// only where the correction looks like lag (mostly along the step, under kMotionCapJumpShare
+// of it); an outlier taken back keeps its correction. Per hand, no allocation, noexcept.
 #include "handsteady/skeleton.hpp"
 #include "handsteady/track.hpp"
 
@@ -24,6 +25,9 @@ namespace hs {
 // as it was (0.471) and 60 % of that gain (1.7107 mm, no cell worse).
 inline constexpr double kMotionCapFactor = 0.5;
 inline constexpr double kMotionCapSpeedZ = 8.0;
+// On a jump row: a correction along the step over this share of the step is an outlier's
+// (docs/STGAE.md "The lag cap": 0.5 against 0.25 on the tuning split at 90 Hz).
+inline constexpr double kMotionCapJumpShare = 0.5;
 
 class MotionLagCap {
  public:
