@@ -15,12 +15,14 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <memory>
 #include <mutex>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace hs::cli {
@@ -51,20 +53,25 @@ void write_text(const fs::path& path, const std::string& text) {
   if (!f) throw InputError({path.string(), 0, "--out"}, "cannot write");
 }
 
+// The shipped models of every family, under the labels their rows take.
+constexpr std::array<std::pair<std::string_view, std::string_view>, 3> kShippedModels{
+    {{"multistgae", kDefaultModelFile}, {"stgae", kStgaeModelFile}, {"dgn", kDgnModelFile}}};
+
 // The --model specs as (label, files), before any data is read. A label names one row of
 // every table: two models under one label would be two rows no reader could tell apart.
 std::vector<std::pair<std::string, fs::path>> model_specs(const BenchmarkOptions& o) {
   std::vector<std::pair<std::string, fs::path>> model_files;
+  const auto baselines = bench::classical_methods({});
   for (const auto& spec : o.models) {
     const auto eq = spec.find('=');
     if (eq == std::string::npos || eq == 0) throw InputError({"", 0, "--model"}, "expects LABEL=FILE.hsm, got '" + spec + "'");
     std::string label = spec.substr(0, eq);
     for (const auto& [seen, file] : model_files)
       if (seen == label) throw InputError({"", 0, "--model"}, "the label '" + label + "' is given twice; each model needs its own");
-    if (!o.no_default_model && (label == "multistgae" || label == "stgae" || label == "dgn"))
+    if (!o.no_default_model && std::any_of(kShippedModels.begin(), kShippedModels.end(), [&](const auto& m) { return m.first == label; }))
       throw InputError({"", 0, "--model"}, "the label '" + label +
                                                "' is a shipped model's; name this model otherwise, or pass --no-default-model");
-    for (const auto& m : bench::classical_methods({}))
+    for (const auto& m : baselines)
       if (m.name == label) throw InputError({"", 0, "--model"}, "the label '" + label + "' is a baseline's; name this model otherwise");
     model_files.emplace_back(std::move(label), spec.substr(eq + 1));
   }
@@ -109,11 +116,10 @@ void run_benchmark(const BenchmarkOptions& o, const std::string& command) {
   bench::use_rate(sets, o.run.rate_hz);
   if (!o.no_default_model) {
     // The shipped models of every family, so that one run compares them all.
-    for (const auto& [label, file] : {std::pair{"multistgae", kDefaultModelFile}, std::pair{"stgae", kStgaeModelFile},
-                                      std::pair{"dgn", kDgnModelFile}}) {
+    for (const auto& [label, file] : kShippedModels) {
       const auto lookup = lookup_default_model({installed_models_dir_for_executable()}, file);
-      if (!lookup.found.empty()) model_files.emplace_back(label, lookup.found);
-      else report.notes.push_back(std::string("no shipped ") + label + " model found (" + lookup.describe_tried() + ")");
+      if (!lookup.found.empty()) model_files.emplace_back(std::string(label), lookup.found);
+      else report.notes.push_back("no shipped " + std::string(label) + " model found (" + lookup.describe_tried() + ")");
     }
   }
   bench::tune_oneeuro(sets, run, report);

@@ -60,6 +60,18 @@ void outlier(Row& r, int axis, double by) {
 void observe(MotionLagCap& cap, const Row& r) {
   cap.observe(std::span<const float>(r.x), r.answer, std::span<const double>(r.noise2), std::span<const double>(r.jump));
 }
+
+// The cap after 8 rows of moving(k, speed, 2 ms), the last one changed by `edit`.
+template <class Edit>
+MotionLagCap after_rows(double speed, Edit&& edit) {
+  MotionLagCap cap;
+  for (int k = 0; k < 8; ++k) {
+    Row r = moving(k, speed, 0.002);
+    if (k == 7) edit(r);
+    observe(cap, r);
+  }
+  return cap;
+}
 }  // namespace
 
 TEST_CASE("lag cap: a fast joint's answer behind the hand is held to half the noise along the motion, kept across") {
@@ -85,12 +97,7 @@ TEST_CASE("lag cap: a fast joint's answer behind the hand is held to half the no
 
 TEST_CASE("lag cap: slow and still joints, jumps, missing joints and unmeasured noise are left alone") {
   auto last_shift = [](double speed, auto&& edit) {
-    MotionLagCap cap;
-    for (int k = 0; k < 8; ++k) {
-      Row r = moving(k, speed, 0.002);
-      if (k == 7) edit(r);
-      observe(cap, r);
-    }
+    const MotionLagCap cap = after_rows(speed, edit);
     double m = 0.0;
     for (int j = 0; j < kJointCount; ++j)
       for (int c = 0; c < 3; ++c) m = std::max(m, std::abs(cap.shift(j, c)));
@@ -118,15 +125,7 @@ TEST_CASE("lag cap: slow and still joints, jumps, missing joints and unmeasured 
 TEST_CASE("lag cap on a row InputNoise calls a jump: the fast hand's own row is capped, an outlier taken back is not") {
   // A fast hand's rows leave the quadratic through the rows before them by more than the
   // noise explains, so InputNoise calls some of them jumps; the answer's lag there is lag.
-  const auto shift_x = [](auto&& edit) {
-    MotionLagCap cap;
-    for (int k = 0; k < 8; ++k) {
-      Row r = moving(k, 1.0, 0.002);
-      if (k == 7) edit(r);
-      observe(cap, r);
-    }
-    return cap.shift(4, 0);
-  };
+  const auto shift_x = [](auto&& edit) { return after_rows(1.0, edit).shift(4, 0); };
   const double capped = 0.002 - hs::kMotionCapFactor * kNoise;
   CHECK(shift_x([](Row&) {}) == doctest::Approx(capped).epsilon(1e-6));
   CHECK(shift_x([](Row& r) { r.jump.fill(0.004); }) == doctest::Approx(capped).epsilon(1e-6));

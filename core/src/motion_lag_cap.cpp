@@ -33,13 +33,14 @@ void MotionLagCap::observe(std::span<const float> x, const Pose& answer, std::sp
       const double sn = step.norm();
       if (!(sn > kMotionCapSpeedZ * std::sqrt(2.0) * sigma)) continue;
       const Eigen::Vector3d u = step / sn;
-      const double along = (out - in).dot(u), cap = kMotionCapFactor * sigma;
+      const Eigen::Vector3d correction = out - in;
+      const double along = correction.dot(u), cap = kMotionCapFactor * sigma;
       if (!(std::abs(along) > cap)) continue;
       // A row InputNoise calls a jump is a fast hand's own row (the answer behind or ahead of
       // it along the motion by a fraction of the step: lag) or an outlier taken back (the
       // correction as large as the outlier, in its direction): kept whole when the correction
       // along the step is over kMotionCapJumpShare of it, or mostly across it.
-      if (jump[ju] > 0.0 && (std::abs(along) > kMotionCapJumpShare * sn || ((out - in) - along * u).norm() > std::abs(along)))
+      if (jump[ju] > 0.0 && (std::abs(along) > kMotionCapJumpShare * sn || (correction - along * u).norm() > std::abs(along)))
         continue;
       const Eigen::Vector3d d = -u * (along - std::copysign(cap, along));
       for (int c = 0; c < 3; ++c) shift_[3 * ju + static_cast<size_t>(c)] = d[c];
