@@ -27,7 +27,7 @@ if args[:1] == ['--cells']:
         sys.exit('the two runs have different noise cells')
     mean = lambda v: sum(v) / len(v)
     for h in ('h0ms', 'h20ms', 'h50ms'):
-        print(f'{h}: {mean([a[c][h]["mpjpe_mm"] for c in a]):.3f} -> {mean([b[c][h]["mpjpe_mm"] for c in a]):.3f} mm')
+        print(f'{h}: {mean([a[c][h]["mpjpe_mm"] for c in a]):.4f} -> {mean([b[c][h]["mpjpe_mm"] for c in a]):.4f} mm')
     for h in ('h0ms', 'h50ms'):
         ratio = lambda d, c: d[c][h]['jitter_mm'] / d[c][h]['truth_jitter_mm']
         print(f'{h} median jitter / truth\'s: {statistics.median([ratio(a, c) for c in a]):.2f} -> '
