@@ -1,8 +1,9 @@
 // The input's noise measured at the input rate (input_noise.hpp): white noise in full,
 // fast clean motion hardly at all, per-joint correlated noise through the bones, a row's
-// own jump, the residuals' shape (Gaussian or a heavy tail), and a tracker's re-fit of a
-// finger that keeps its bones and stays, which is followed; and through the adapter, a clean hand writing fast at 90 Hz is answered near
-// its input, not where the network would drag it, and a re-fitted finger is followed.
+// own jump and whether it stretched a bone, the residuals' shape (Gaussian or a heavy tail),
+// and a tracker's re-fit of a finger that keeps its bones and stays, which is followed; and
+// through the adapter, a clean hand writing fast at 90 Hz is answered near its input, not
+// where the network would drag it, and a re-fitted finger is followed.
 #include "handsteady/correction_bound.hpp"
 #include "handsteady/input_noise.hpp"
 #include "handsteady/stgae_filter.hpp"
@@ -261,6 +262,41 @@ TEST_CASE("InputNoise: a joint that moves with its parent moved with the hand, o
   CHECK(share < 0.02);
   CHECK(found >= 0.9 * outliers);
   CHECK(child_jumps <= outliers / 10);
+}
+
+TEST_CASE("InputNoise: an outlier of one joint stretches its bones, the hand's fast motion keeps them") {
+  // What the lag cap asks of a jump (motion_lag_cap.hpp): a joint put 10-50 mm off in any
+  // direction (the benchmark's outliers) changes the length of a bone it ends; a hand
+  // writing fast and turning, over 0.1 mm of jitter, changes none.
+  std::mt19937_64 rng(17);
+  const auto times = irregular_times(6.0, rng);
+  std::normal_distribution<double> noise(0.0, 0.0001), axis(0.0, 1.0);
+  std::uniform_real_distribution<double> size(0.01, 0.05);
+  InputNoise clean, spiky;
+  int rows = 0, clean_stretched = 0, outliers = 0, found = 0, stretched = 0;
+  for (size_t i = 0; i < times.size(); ++i) {
+    const hs::Pose p = hs::test::jittered(hs::test::writing_hand(times[i]), rng, noise);
+    clean.push(times[i], frame_of(p));
+    hs::Pose q = p;
+    const bool outlier = i >= 30 && i % 20 == 0;
+    const int j = 1 + static_cast<int>(i / 20) % (kJointCount - 1);  // every joint but the palm in turn
+    if (outlier) q.row(j) += size(rng) * Eigen::RowVector3d(axis(rng), axis(rng), axis(rng)).normalized();
+    spiky.push(times[i], frame_of(q));
+    if (i < 30) continue;
+    ++rows;
+    for (int k = 0; k < kJointCount; ++k) clean_stretched += clean.stretched()[static_cast<size_t>(k)];
+    if (outlier && spiky.jump(j) > 0.0) {
+      ++found;
+      stretched += spiky.stretched()[static_cast<size_t>(j)];
+    }
+    outliers += outlier;
+  }
+  MESSAGE("a clean hand writing fast: " << clean_stretched << " of " << rows * kJointCount
+                                        << " joint-rows stretched; 10-50 mm outliers: " << found << " of " << outliers
+                                        << " called jumps, " << stretched << " of those stretched");
+  CHECK(clean_stretched == 0);
+  CHECK(found >= 0.9 * outliers);
+  CHECK(stretched >= 0.8 * found);
 }
 
 TEST_CASE("InputNoise: a finger the tracker turns over and keeps there is followed from the next row") {

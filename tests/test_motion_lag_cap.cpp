@@ -1,7 +1,8 @@
 // The lag cap (motion_lag_cap.hpp): on a joint moving faster than its noise explains, an
 // answer behind the hand is brought to within half the noise along the motion and left as
-// it is across it; slow or still joints, outliers taken back, missing joints and unmeasured
-// noise are left alone, a fast hand's own rows called jumps are not. Through the adapter:
+// it is across it; slow or still joints, outliers taken back (a bone stretched, or a
+// correction unlike lag), missing joints and unmeasured noise are left alone, a fast hand's
+// own rows called jumps are not. Through the adapter:
 // the shipped model on fast free-air Leap Motion takes.
 #include "handsteady/corrupt.hpp"
 #include "handsteady/filters.hpp"
@@ -32,6 +33,7 @@ struct Row {
   hs::Pose answer = hs::untracked_pose();
   std::array<double, kJointCount> noise2{};
   std::array<double, kJointCount> jump{};
+  std::array<bool, kJointCount> stretched{};
 };
 
 // Row k of a hand whose joints all move along x at `speed` (m/s), the input exact, the
@@ -51,14 +53,18 @@ Row moving(int k, double speed, double lag_s) {
 }
 
 // Row r's input moved `by` (m) along axis `axis` (0: along the motion, 1: across it), and
-// called a jump of that size, as InputNoise would; the answer stays where it was.
-void outlier(Row& r, int axis, double by) {
+// called a jump of that size, as InputNoise would; the answer stays where it was. An
+// outlier of one joint stretches a bone it ends (`stretches`); a shift that turns the bone
+// instead (the papers' corruption) keeps them.
+void outlier(Row& r, int axis, double by, bool stretches = true) {
   for (int j = 0; j < kJointCount; ++j) r.x[static_cast<size_t>(3 * j + axis)] += static_cast<float>(by);
   r.jump.fill(std::abs(by));
+  r.stretched.fill(stretches);
 }
 
 void observe(MotionLagCap& cap, const Row& r) {
-  cap.observe(std::span<const float>(r.x), r.answer, std::span<const double>(r.noise2), std::span<const double>(r.jump));
+  cap.observe(std::span<const float>(r.x), r.answer, std::span<const double>(r.noise2), std::span<const double>(r.jump),
+              std::span<const bool>(r.stretched));
 }
 
 // The cap after 8 rows of moving(k, speed, 2 ms), the last one changed by `edit`.
@@ -129,14 +135,24 @@ TEST_CASE("lag cap on a row InputNoise calls a jump: the fast hand's own row is 
   const double capped = 0.002 - hs::kMotionCapFactor * kNoise;
   CHECK(shift_x([](Row&) {}) == doctest::Approx(capped).epsilon(1e-6));
   CHECK(shift_x([](Row& r) { r.jump.fill(0.004); }) == doctest::Approx(capped).epsilon(1e-6));
-  // Outliers of 20 mm the answer takes back: along the motion the correction is most of the
-  // joint's 22 mm step (two rows at 1 m/s), across it the correction is mostly across.
+  // A row that is no jump is capped whatever its bones did (InputNoise found no outlier).
+  CHECK(shift_x([](Row& r) { r.stretched.fill(true); }) == doctest::Approx(capped).epsilon(1e-6));
+  // Outliers the answer takes back that stretched a bone stay whole at any size and in any
+  // direction, 8 mm along the motion (well under the joint's 22 mm step: two rows at 1 m/s,
+  // where the correction alone reads as lag) as 20 mm along, against or across it.
+  CHECK(shift_x([](Row& r) { outlier(r, 0, -0.008); }) == 0.0);
   CHECK(shift_x([](Row& r) { outlier(r, 0, 0.02); }) == 0.0);
   CHECK(shift_x([](Row& r) { outlier(r, 0, -0.02); }) == 0.0);
   CHECK(shift_x([](Row& r) { outlier(r, 1, 0.02); }) == 0.0);
-  // The rule's limit: an outlier along the motion under half the step reads as lag (or lead),
+  // Outliers that kept the bones are told by the correction: over the step along the motion,
+  // or mostly across it, whole ...
+  CHECK(shift_x([](Row& r) { outlier(r, 0, 0.03, false); }) == 0.0);
+  CHECK(shift_x([](Row& r) { outlier(r, 0, -0.03, false); }) == 0.0);
+  CHECK(shift_x([](Row& r) { outlier(r, 1, 0.02, false); }) == 0.0);
+  // ... and the rule's limit: one along the motion under the step reads as lag (or lead),
   // and is capped like it.
-  CHECK(shift_x([](Row& r) { outlier(r, 0, -0.008); }) < -0.005);
+  CHECK(shift_x([](Row& r) { outlier(r, 0, -0.008, false); }) < -0.005);
+  CHECK(shift_x([](Row& r) { outlier(r, 0, 0.015, false); }) > 0.012);
 }
 
 TEST_CASE("lag cap through the adapter: the shipped model on fast free-air takes at 90 Hz falls less far behind") {

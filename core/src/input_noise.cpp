@@ -40,6 +40,7 @@ void InputNoise::reset() noexcept {
   bone_mean_.fill(0.0);
   bone_var_.fill(0.0);
   jump_.fill(0.0);
+  stretched_.fill(false);
   noise2_.fill(0.0);
   smooth_n_.fill(0);
   bone_n_.fill(0);
@@ -87,6 +88,7 @@ void InputNoise::push(double t, std::span<const float> x) noexcept {
   std::array<double, kJointCount> stretch;
   stretch.fill(std::numeric_limits<double>::quiet_NaN());
   std::array<bool, kJointCount> strained{};
+  stretched_.fill(false);
   for (size_t ju = 0; ju < kJointCount; ++ju) {
     const int parent = kXrParent[ju];
     if (parent < 0) continue;
@@ -96,9 +98,12 @@ void InputNoise::push(double t, std::span<const float> x) noexcept {
     if (finite_xyz(xj) && finite_xyz(xp)) stretch[ju] = (at(xj) - at(xp)).norm() - bone_mean_[ju];
     const double d = stretch[ju];
     const double spread2 = std::max(bone_var_[ju], kInputNoiseStretchFloor * kInputNoiseStretchFloor);
-    // Without a length learnt yet there is no evidence: the residual decides alone.
-    if (!std::isfinite(d) || bone_n_[ju] < kInputNoiseWarmRows || d * d > kInputNoiseStretch * kInputNoiseStretch * spread2)
-      strained[ju] = strained[pu] = true;
+    // Without a length learnt yet there is no evidence: the residual decides alone here
+    // (strained), and nothing is reported stretched.
+    const bool learnt = std::isfinite(d) && bone_n_[ju] >= kInputNoiseWarmRows;
+    const bool off_length = learnt && d * d > kInputNoiseStretch * kInputNoiseStretch * spread2;
+    if (!learnt || off_length) strained[ju] = strained[pu] = true;
+    if (off_length) stretched_[ju] = stretched_[pu] = true;
   }
   // Smoothness, and which rows are jumps, parents first. A jump's residual, and those of the
   // kQuadRows rows after it (their quadratic runs through it), are held out of the mean:

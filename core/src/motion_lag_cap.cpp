@@ -13,7 +13,7 @@ void MotionLagCap::reset() noexcept {
 }
 
 void MotionLagCap::observe(std::span<const float> x, const Pose& answer, std::span<const double> noise2,
-                           std::span<const double> jump) noexcept {
+                           std::span<const double> jump, std::span<const bool> stretched) noexcept {
   shift_.fill(0.0);
   Pose capped = answer;
   const bool ready = n_ >= static_cast<long>(kRows) && x.size() >= 3 * kJointCount && noise2.size() >= kJointCount &&
@@ -37,10 +37,14 @@ void MotionLagCap::observe(std::span<const float> x, const Pose& answer, std::sp
       const double along = correction.dot(u), cap = kMotionCapFactor * sigma;
       if (!(std::abs(along) > cap)) continue;
       // A row InputNoise calls a jump is a fast hand's own row (the answer behind or ahead of
-      // it along the motion by a fraction of the step: lag) or an outlier taken back (the
-      // correction as large as the outlier, in its direction): kept whole when the correction
-      // along the step is over kMotionCapJumpShare of it, or mostly across it.
-      if (jump[ju] > 0.0 && (std::abs(along) > kMotionCapJumpShare * sn || (correction - along * u).norm() > std::abs(along)))
+      // it along the motion: lag) or an outlier taken back. An outlier of one joint mostly
+      // stretches a bone it ends, the hand's motion keeps them all; one that keeps them (a
+      // shift that turns its bone) shows in the correction, as large as the outlier and in its
+      // direction: kept whole where the correction along the step is over kMotionCapJumpShare
+      // of the step, or mostly across it.
+      if (jump[ju] > 0.0 &&
+          ((stretched.size() >= kJointCount && stretched[ju]) || std::abs(along) > kMotionCapJumpShare * sn ||
+           (correction - along * u).norm() > std::abs(along)))
         continue;
       const Eigen::Vector3d d = -u * (along - std::copysign(cap, along));
       for (int c = 0; c < 3; ++c) shift_[3 * ju + static_cast<size_t>(c)] = d[c];

@@ -99,7 +99,7 @@ class StgaeFilter final : public PoseFilter {
     if (cap) {
       // The lag cap reads the answer with the gain's shift and the noise measured at the
       // input rate, which one stream's rows do not give.
-      lag_cap_.observe(std::span<const float>(cur_.data(), cur_.size()), ans_, noise_.noise2(), noise_.jumps());
+      lag_cap_.observe(std::span<const float>(cur_.data(), cur_.size()), ans_, noise_.noise2(), noise_.jumps(), noise_.stretched());
     }
     if (guard) {
       // The guard reads it with the gain's and the cap's shifts (the cap's is zero where it does not act).

@@ -70,6 +70,11 @@ class InputNoise {
   // Both for every joint (what CorrectionBound::apply takes).
   std::span<const double> noise2() const noexcept { return noise2_; }
   std::span<const double> jumps() const noexcept { return jump_; }
+  // Per joint: whether a bone it ends (to its parent or a child) changed length in the last
+  // row by more than kInputNoiseStretch RMS of its spread, the length learnt (false without
+  // that evidence). An outlier of one joint mostly stretches one; the hand's motion keeps
+  // them all.
+  std::span<const bool> stretched() const noexcept { return stretched_; }
   // The shape of joint j's smoothness residuals: the sum over axes of (E|r_axis|)^2 over
   // 2 / pi times E|r|^2, 1 for Gaussian jitter of any covariance (white or correlated,
   // isotropic or mostly in depth), over 1 for tremor, well under 1 for a heavy tail (most
@@ -89,6 +94,7 @@ class InputNoise {
     a.fill(1.0);
     return a;
   }();
+  std::array<bool, kJointCount> stretched_{};
   std::array<int, kJointCount> smooth_n_{}, bone_n_{};
   std::array<int, kJointCount> taint_{};  // rows still to come whose quadratic runs through a jump
   std::array<int, kJointCount> held_{};   // residuals held out in a row

@@ -8,8 +8,9 @@
 // component along that step is held to kMotionCapFactor times the noise's RMS; across it,
 // and on slower joints, nothing changes. Needs the noise measured at the input rate
 // (InputNoise: input faster than the model). On a row InputNoise calls a jump the cap acts
-// only where the correction looks like lag (mostly along the step, under kMotionCapJumpShare
-// of it); an outlier taken back keeps its correction. Per hand, no allocation, noexcept.
+// only where the joint's bones kept their lengths and the correction looks like lag (mostly
+// along the step, under kMotionCapJumpShare of it); an outlier taken back keeps its
+// correction. Per hand, no allocation, noexcept.
 #include "handsteady/skeleton.hpp"
 #include "handsteady/track.hpp"
 
@@ -25,18 +26,20 @@ namespace hs {
 // as it was (0.471) and 60 % of that gain (1.7107 mm, no cell worse).
 inline constexpr double kMotionCapFactor = 0.5;
 inline constexpr double kMotionCapSpeedZ = 8.0;
-// On a jump row: a correction along the step over this share of the step is an outlier's
-// (docs/STGAE.md "The lag cap": 0.5 against 0.25 on the tuning split at 90 Hz).
-inline constexpr double kMotionCapJumpShare = 0.5;
+// On a jump row that kept the joint's bones: a correction along the step over this share of
+// the step is an outlier's (docs/STGAE.md "The lag cap", "On rows called jumps": 1 against
+// 0.5 and 2 on the tuning split at 90 Hz; 0.5 before the bones were asked).
+inline constexpr double kMotionCapJumpShare = 1.0;
 
 class MotionLagCap {
  public:
   void reset() noexcept;
   // The input row x (3 * kJointCount, joint-major xyz, NaN = missing), the answer at its
   // time without this cap (NaN rows = none), and the input's noise (InputNoise: E|n|^2 per
-  // joint, this row's jumps). Sets the shift for answers made from this row.
+  // joint, this row's jumps, the joints whose bones it stretched). Sets the shift for
+  // answers made from this row.
   void observe(std::span<const float> x, const Pose& answer, std::span<const double> noise2,
-               std::span<const double> jump) noexcept;
+               std::span<const double> jump, std::span<const bool> stretched) noexcept;
   // Clears the shift (a row without the hand); the answers seen stay.
   void clear() noexcept { shift_.fill(0.0); }
   // What to add to coordinate c of joint j of answers made from the last row (m).
