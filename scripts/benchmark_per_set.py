@@ -5,7 +5,7 @@
 # 50 ms and of each cell's jitter / the truth's at both (models/MODEL.md's per-rate figures).
 # With --cells A.json LABEL_A B.json LABEL_B: method B against method A (two runs of the same
 # grid and seed, or one run), cell by cell: means at H = 0, 20 and 50 ms, the median jitter ÷ the
-# truth's at H = 0 and 50 ms, the mean lag, per set at H = 0
+# truth's at H = 0 and 50 ms, the mean lag, the occluded joints' MPJPE per family, per set at H = 0
 # and 50 ms, and the cells where B's H = 0 MPJPE is more than 0.5 % lower / higher; at 50 ms
 # the same count and every noise cell's change, then each cell of the other blocks (rates,
 # hand shapes, recordings at their own times or without truth) at H = 0 and 50 ms.
@@ -33,6 +33,15 @@ if args[:1] == ['--cells']:
         print(f'{h} median jitter / truth\'s: {statistics.median([ratio(a, c) for c in a]):.2f} -> '
               f'{statistics.median([ratio(b, c) for c in a]):.2f}')
     print(f'h0ms mean lag: {mean([a[c]["h0ms"]["lag_ms"] for c in a]):.2f} -> {mean([b[c]["h0ms"]["lag_ms"] for c in a]):.2f} ms')
+    # The occluded joints (benchmark.md "Occluded joints"): per noise family, the mean over the
+    # noise cells that have such joints in both runs.
+    occ = collections.defaultdict(list)
+    for c in a:
+        if 'occluded_h0' in a[c] and 'occluded_h0' in b[c]:
+            occ[a[c]['family']].append((a[c]['occluded_h0']['mpjpe_mm'], b[c]['occluded_h0']['mpjpe_mm']))
+    for f in sorted(occ):
+        print(f'h0ms occluded joints, {f} ({len(occ[f])} cells): {mean([x for x, _ in occ[f]]):.3f} -> '
+              f'{mean([y for _, y in occ[f]]):.3f} mm')
     for s in sorted({r['set'] for r in a.values()}):
         cs = [c for c in a if a[c]['set'] == s]
         x0, y0 = mean([a[c]['h0ms']['mpjpe_mm'] for c in cs]), mean([b[c]['h0ms']['mpjpe_mm'] for c in cs])
