@@ -21,6 +21,7 @@ void MotionLagCap::observe(std::span<const float> x, const Pose& answer, std::sp
   if (ready) {
     const Pose& last = answers_[static_cast<size_t>((n_ - 1) % static_cast<long>(kRows))];
     const Pose& third = answers_[static_cast<size_t>(n_ % static_cast<long>(kRows))];  // kRows rows back
+    const bool bones = stretched.size() >= kJointCount;  // whether the bones' evidence came
     for (int j = 0; j < kJointCount; ++j) {
       const auto ju = static_cast<size_t>(j);
       const float* xj = x.data() + 3 * ju;
@@ -43,7 +44,7 @@ void MotionLagCap::observe(std::span<const float> x, const Pose& answer, std::sp
       // direction: kept whole where the correction along the step is over kMotionCapJumpShare
       // of the step, or mostly across it.
       if (jump[ju] > 0.0 &&
-          ((stretched.size() >= kJointCount && stretched[ju]) || std::abs(along) > kMotionCapJumpShare * sn ||
+          ((bones && stretched[ju]) || std::abs(along) > kMotionCapJumpShare * sn ||
            (correction - along * u).norm() > std::abs(along)))
         continue;
       const Eigen::Vector3d d = -u * (along - std::copysign(cap, along));
