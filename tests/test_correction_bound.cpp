@@ -2,10 +2,12 @@
 // hand, free on a noisy one, outliers taken back whole, corrections far beyond the noise
 // shrunk, predictions within reach of the input's motion; and the shipped model through the PoseFilter adapter on still hands.
 #include "handsteady/correction_bound.hpp"
+#include "handsteady/palm_fit.hpp"
 #include "handsteady/stgae_filter.hpp"
 #include "handsteady/stgae_model.hpp"
 #include "test_support.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <random>
@@ -340,6 +342,81 @@ TEST_CASE("a one-frame outlier is taken back whole, missing joints are not bound
   b.apply(clean, p);
   CHECK(max_diff(p.data(), clean.data(), kFs) < 1e-7);
   CHECK(max_diff(p.data() + kFs, clean.data(), kFs) < 1e-7);
+}
+
+namespace {
+// The hand turned by `deg` degrees about z through its palm joint; only the joints in
+// `which` (all when empty).
+std::vector<float> turned(const hs::Pose& hand, double deg, const std::vector<int>& which = {}) {
+  const Eigen::Matrix3d r = Eigen::AngleAxisd(deg * M_PI / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  const Eigen::Vector3d c = hand.row(hs::idx(hs::Joint::Palm)).transpose();
+  hs::Pose p = hand;
+  for (int j = 0; j < kJointCount; ++j)
+    if (which.empty() || std::find(which.begin(), which.end(), j) != which.end())
+      p.row(j) = (c + r * (hand.row(j).transpose() - c)).transpose();
+  return frame_of(p);
+}
+}  // namespace
+
+TEST_CASE("the radius opens to what a joint did against its hand: a hand turning as a whole is followed") {
+  // One stream at the model's rate, the palm rigid (as the palm fit in front makes it). The
+  // hand turns 1 degree a frame, the network answering the input; then 25 degrees in one
+  // frame while the network still answers the frame before (its lag). Measured in the
+  // world, that frame's second difference (~40 mm at the fingertips) would open the
+  // radius and let the lag through; in the hand's frame it is nothing.
+  const hs::Pose hand = hs::test::synthetic_hand();
+  const auto tip = static_cast<size_t>(3 * hs::idx(hs::Joint::IndexTip));
+  const auto run_up = [&](CorrectionBound& b) {
+    for (int n = 0; n < 20; ++n) {
+      const auto x = turned(hand, n);
+      auto path = path_near(x, 2, 0.0, 0.0);
+      b.apply(x, path);
+    }
+  };
+  {
+    CorrectionBound b(2);
+    run_up(b);
+    const auto before = turned(hand, 19);
+    const auto x = turned(hand, 44);
+    CHECK(joint_dist(x, before, tip) > 0.03);
+    auto path = path_near(before, 2, 0.0, 0.0);
+    b.apply(x, path);
+    CHECK(b.radius(static_cast<int>(tip / 3)) < 0.002);
+    CHECK(frame_off(path, 0, x, tip) < 0.002);
+  }
+  {
+    // A joint that jumps against its hand while the hand turns as before is taken back whole.
+    CorrectionBound b(2);
+    run_up(b);
+    const auto clean = turned(hand, 20);
+    auto x = clean;
+    x[tip + 1] += 0.03f;
+    auto path = path_near(clean, 2, 0.0, 0.0);
+    b.apply(x, path);
+    CHECK(b.radius(static_cast<int>(tip / 3)) >= 0.029);
+    CHECK(frame_off(path, 0, clean, tip) < 1e-6);
+  }
+  {
+    // A palm that turns while the fingers stay (a fit in front that failed) is no motion of
+    // the hand: the radius opens to the palm joints' world second difference, and the
+    // network may take them back.
+    CorrectionBound b(2);
+    run_up(b);
+    std::vector<int> palm(hs::kPalmJoints.begin(), hs::kPalmJoints.end());
+    const auto clean = turned(hand, 20);
+    const hs::Pose at20 = [&] {
+      hs::Pose p;
+      for (int j = 0; j < kJointCount; ++j)
+        for (int c = 0; c < 3; ++c) p(j, c) = clean[static_cast<size_t>(3 * j + c)];
+      return p;
+    }();
+    const auto x = turned(at20, 30, palm);
+    const auto meta = static_cast<size_t>(3 * hs::idx(hs::Joint::IndexProximal));
+    CHECK(joint_dist(x, clean, meta) > 0.02);
+    auto path = path_near(clean, 2, 0.0, 0.0);
+    b.apply(x, path);
+    CHECK(frame_off(path, 0, clean, meta) < 1e-6);
+  }
 }
 
 TEST_CASE("predicted displacements the input's future does not confirm are taken back, a hand setting off keeps its") {

@@ -1,5 +1,7 @@
 #include "handsteady/correction_bound.hpp"
+#include "handsteady/palm_fit.hpp"
 #include "handsteady/time_series.hpp"
+#include "rigid_fit.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -32,6 +34,58 @@ void mean_step(Eigen::Vector3d& mean, double& spread2, Eigen::Vector3d& last, in
   if (last.allFinite()) spread2 += w * (0.5 * (sample - last).squaredNorm() - spread2);
   last = sample;
   mean += w * (clamp_into(sample, mean, step) - mean);
+}
+// The hand's motion from frame `from` onto frame `to`: the rotation and translation that take
+// the palm joints seen in both onto each other, less those whose distances to the others
+// changed by over kPalmMotionOff times the median joint's (at least kPalmMotionFloorM): an
+// outlier the palm fit let through, a finger base that flexed (false: too few to fix it).
+constexpr double kPalmMotionOff = 3.0;
+constexpr double kPalmMotionFloorM = 0.002;
+bool palm_motion(const float* from, const float* to, Rigid& out) noexcept {
+  constexpr size_t kP = kPalmJoints.size();
+  std::array<Eigen::Vector3d, kP> a, b;
+  std::array<bool, kP> use{};
+  for (size_t i = 0; i < kP; ++i) {
+    const size_t o = 3 * static_cast<size_t>(kPalmJoints[i]);
+    use[i] = finite_xyz(from + o) && finite_xyz(to + o);
+    a[i] = use[i] ? load(from + o) : Eigen::Vector3d::Zero();
+    b[i] = use[i] ? load(to + o) : Eigen::Vector3d::Zero();
+  }
+  std::array<double, kP> score{}, sorted{};
+  distance_scores(a, b, use, 1.0, score);
+  size_t n = 0;
+  for (size_t i = 0; i < kP; ++i)
+    if (use[i]) sorted[n++] = score[i];
+  if (n < 3) return false;
+  std::nth_element(sorted.begin(), sorted.begin() + n / 2, sorted.begin() + n);
+  const double cut = std::max(kPalmMotionOff * sorted[n / 2], kPalmMotionFloorM);
+  for (size_t i = 0; i < kP; ++i) use[i] = use[i] && score[i] <= cut;
+  if (!kabsch(a, b, use, out, false)) return false;
+  // A palm that did not move as one body (half of it turned away: a fit in front that
+  // failed on many shifted joints) says nothing of what the hand did.
+  for (size_t i = 0; i < kP; ++i)
+    if (use[i] && (out.apply(a[i]) - b[i]).norm() > kPalmMotionFloorM) return false;
+  return true;
+}
+// The hand's motion from frames x2 and x1 (the two before) onto x0, for a joint's second
+// difference in the hand's own frame: what the joint did against its hand, which an outlier
+// does and a hand that sweeps, stops or turns as a whole does not. It counts only where it
+// explains the fingers' motion too (most of them moved less against it than in the world):
+// a palm that turned while the fingers stayed is an error in front (the palm fit misled by
+// many shifted joints, the `paper` preset's), not the hand's motion.
+bool hand_motion(const float* x2, const float* x1, const float* x0, Rigid& from2, Rigid& from1) noexcept {
+  if (!palm_motion(x1, x0, from1) || !palm_motion(x2, x0, from2)) return false;
+  int with = 0, against = 0;
+  for (int j = 0; j < kJointCount; ++j) {
+    if (std::find(kPalmJoints.begin(), kPalmJoints.end(), j) != kPalmJoints.end()) continue;
+    const size_t o = 3 * static_cast<size_t>(j);
+    if (!finite_xyz(x0 + o) || !finite_xyz(x1 + o) || !finite_xyz(x2 + o)) continue;
+    const Eigen::Vector3d p0 = load(x0 + o), p1 = load(x1 + o), p2 = load(x2 + o);
+    const double world = (p0 - 2.0 * p1 + p2).norm();
+    const double hand = (p0 - 2.0 * from1.apply(p1) + from2.apply(p2)).norm();
+    ++(hand < world ? with : against);
+  }
+  return with > against;
 }
 // The part of a running mean that stands out of its own noise: shrunk towards zero by two
 // standard errors (spread * sqrt(w / 2) for an exponential mean of weight w), so a mean of
@@ -187,6 +241,11 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std
   std::fill(disp_now, disp_now + (F - 1) * kFs, kNaNf);
   std::fill(row_num_.begin(), row_num_.end(), 0.0);
   std::fill(row_den_.begin(), row_den_.end(), 0.0);
+  // The hand's motion from each of the two frames before onto this one, where the palm
+  // moved as one body and that explains the fingers too (hand_motion); found when a joint
+  // first needs it (where the noise is measured, most rows none does).
+  Rigid from1, from2;
+  int hand_frame = n_ >= 2 ? -1 : 0;  // -1: not looked for yet
   for (int j = 0; j < kJointCount; ++j) {
     const auto ju = static_cast<size_t>(j);
     const size_t o = 3 * ju;
@@ -210,7 +269,16 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std
       a = (xn - 2.0 * load(x1) + load(x2)).norm();
       rough_[ju] += running_weight(count_[ju], kCorrectionRoughnessFrames) * (a * a - rough_[ju]);
     }
-    const double r = std::max(noise_r, measured ? jump[ju] : a);
+    // The radius opens to this frame's own second difference so that a one-frame outlier
+    // is taken back whole; in the hand's frame, so that a hand that sweeps, stops or turns
+    // as a whole is not held back by it (a Leap swipe stopping within a 30 Hz row: the
+    // world's second difference let the network's overshoot through).
+    double a_hand = a;
+    if (have2 && !measured) {
+      if (hand_frame < 0) hand_frame = hand_motion(x_back(2), x_back(1), x_now, from2, from1) ? 1 : 0;
+      if (hand_frame > 0) a_hand = (xn - 2.0 * from1.apply(load(x1)) + from2.apply(load(x2))).norm();
+    }
+    const double r = std::max(noise_r, measured ? jump[ju] : a_hand);
     radius_[ju] = r;
     float* dj = path.data() + o;
     if (!finite_xyz(dj)) continue;

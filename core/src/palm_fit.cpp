@@ -1,4 +1,5 @@
 #include "handsteady/palm_fit.hpp"
+#include "rigid_fit.hpp"
 
 #include <Eigen/Dense>
 
@@ -15,86 +16,6 @@ using V3 = Eigen::Vector3d;
 // The running median residual moves this share of itself (at least of the floor) a row.
 constexpr double kPalmMedianStep = 0.05;
 constexpr double kPalmMedianFloorM = 0.0005;
-
-struct Rigid {
-  Eigen::Matrix3d r = Eigen::Matrix3d::Identity();
-  V3 t = V3::Zero();
-  double s = 1.0;
-  V3 apply(const V3& p) const { return s * (r * p) + t; }
-  V3 invert(const V3& q) const { return r.transpose() * (q - t) / s; }
-};
-
-
-// The rotation and translation taking the template points a to the row's points b (least
-// squares over the points with use[i], Kabsch). False when they do not fix a rotation.
-template <size_t P>
-bool kabsch(const std::array<V3, P>& a, const std::array<V3, P>& b, const std::array<bool, P>& use, Rigid& out) {
-  V3 ca = V3::Zero(), cb = V3::Zero();
-  int n = 0;
-  for (size_t i = 0; i < P; ++i)
-    if (use[i]) {
-      ca += a[i];
-      cb += b[i];
-      ++n;
-    }
-  if (n < 3) return false;
-  ca /= n;
-  cb /= n;
-  Eigen::Matrix3d h = Eigen::Matrix3d::Zero();
-  for (size_t i = 0; i < P; ++i)
-    if (use[i]) h += (a[i] - ca) * (b[i] - cb).transpose();
-  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(h, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  const auto& sv = svd.singularValues();
-  if (!(sv(1) > 1e-9 * std::max(sv(0), 1e-30))) return false;  // collinear points
-  Eigen::Matrix3d d = Eigen::Matrix3d::Identity();
-  if ((svd.matrixV() * svd.matrixU().transpose()).determinant() < 0.0) d(2, 2) = -1.0;
-  out.r = svd.matrixV() * d * svd.matrixU().transpose();
-  // Uniform scale (Umeyama): trackers that re-estimate the hand's size as they go (Leap
-  // Motion does, by up to 10 % between takes and 3 % within one) stay fitted.
-  double va = 0.0;
-  for (size_t i = 0; i < P; ++i)
-    if (use[i]) va += (a[i] - ca).squaredNorm();
-  const double tr = sv(0) * d(0, 0) + sv(1) * d(1, 1) + sv(2) * d(2, 2);
-  out.s = va > 0.0 && tr > 0.0 ? tr / va : 1.0;
-  out.t = cb - out.s * (out.r * ca);
-  return true;
-}
-
-// How far each used joint disagrees with the template by its distances to the other used
-// joints, which do not change with the hand's pose (so this needs no fit): a low quantile
-// of |distance - s * template distance| over the others. s is the hand's size: the last
-// fit's (it changes slowly; a median over pairs would be pulled by the joints that jumped),
-// else the median ratio. A joint that jumped disagrees with most others; a good joint only
-// with the few that jumped. Unused joints score 0.
-template <size_t P>
-void distance_scores(const std::array<V3, P>& a, const std::array<V3, P>& b, const std::array<bool, P>& use,
-                     double s, std::array<double, P>& score) {
-  std::array<double, P * P> ratio{};
-  size_t n = 0;
-  for (size_t i = 0; i < P; ++i)
-    for (size_t j = i + 1; j < P; ++j)
-      if (use[i] && use[j]) {
-        const double d0 = (a[i] - a[j]).norm();
-        if (d0 > 0.0) ratio[n++] = (b[i] - b[j]).norm() / d0;
-      }
-  score.fill(0.0);
-  if (n == 0) return;
-  if (!(s > 0.0)) {
-    std::nth_element(ratio.begin(), ratio.begin() + n / 2, ratio.begin() + n);
-    s = ratio[n / 2];
-  }
-  std::array<double, P> dev{};
-  for (size_t i = 0; i < P; ++i) {
-    if (!use[i]) continue;
-    size_t m = 0;
-    for (size_t j = 0; j < P; ++j)
-      if (j != i && use[j]) dev[m++] = std::abs((b[i] - b[j]).norm() - s * (a[i] - a[j]).norm());
-    if (m == 0) continue;
-    const size_t q = (m - 1) / 3;
-    std::nth_element(dev.begin(), dev.begin() + q, dev.begin() + m);
-    score[i] = dev[q];
-  }
-}
 
 // The used joint with the largest error above `limit` (P: none).
 template <size_t P>

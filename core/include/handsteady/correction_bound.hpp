@@ -24,7 +24,11 @@ namespace hs {
 // Radius = max(kCorrectionNoiseFactor * noise, |second difference now|): `noise` is the
 // RMS noise a white jitter with the joint's mean squared second difference would have
 // (E|a|^2 = 6 E|n|^2), averaged over about kCorrectionRoughnessFrames earlier frames; the
-// second term lets a one-frame outlier be taken back whole. The offsets are means over
+// second term lets a one-frame outlier be taken back whole. That term is taken in the
+// hand's frame (the palm's rigid motion over the three frames taken out) where the palm
+// moved as one body and that motion explains most fingers' too: a hand that sweeps,
+// stops or turns as a whole does not open the radius to the network's lag, a joint that
+// jumped against its hand still does. The offsets are means over
 // about kCorrectionBiasFrames frames, each step clipped to the noise radius, applied only
 // beyond two of their standard errors.
 inline constexpr double kCorrectionNoiseFactor = 3.0;
