@@ -57,15 +57,16 @@ bool kabsch(const std::array<Eigen::Vector3d, P>& a, const std::array<Eigen::Vec
   return true;
 }
 
-// How far each used joint disagrees with the template by its distances to the other used
-// joints, which do not change with the hand's pose (so this needs no fit): a low quantile
-// of |distance - s * template distance| over the others. s is the hand's size: the last
-// fit's (it changes slowly; a median over pairs would be pulled by the joints that jumped),
-// else the median ratio. A joint that jumped disagrees with most others; a good joint only
-// with the few that jumped. Unused joints score 0.
+// How far each used joint of b disagrees with a (the palm fit's template; the trust
+// region's frame before) by its distances to the other used joints, which do not change
+// as a rigid body moves (so this needs no fit): a low quantile of |distance - s * distance
+// in a| over the others. s is the hand's size: the palm fit's last fit's (it changes slowly;
+// a median over pairs would be pulled by the joints that jumped), else (s <= 0) the median
+// ratio. A joint that jumped disagrees with most others; a good joint only with the few
+// that jumped. Unused joints score 0.
 template <size_t P>
-inline void distance_scores(const std::array<Eigen::Vector3d, P>& a, const std::array<Eigen::Vector3d, P>& b, const std::array<bool, P>& use,
-                     double s, std::array<double, P>& score) {
+void distance_scores(const std::array<Eigen::Vector3d, P>& a, const std::array<Eigen::Vector3d, P>& b,
+                     const std::array<bool, P>& use, double s, std::array<double, P>& score) {
   std::array<double, P * P> ratio{};
   size_t n = 0;
   for (size_t i = 0; i < P; ++i)
