@@ -347,14 +347,14 @@ TEST_CASE("a one-frame outlier is taken back whole, missing joints are not bound
 namespace {
 // The hand turned by `deg` degrees about z through its palm joint; only the joints in
 // `which` (all when empty).
-std::vector<float> turned(const hs::Pose& hand, double deg, const std::vector<int>& which = {}) {
+hs::Pose turned(const hs::Pose& hand, double deg, const std::vector<int>& which = {}) {
   const Eigen::Matrix3d r = Eigen::AngleAxisd(deg * M_PI / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   const Eigen::Vector3d c = hand.row(hs::idx(hs::Joint::Palm)).transpose();
   hs::Pose p = hand;
   for (int j = 0; j < kJointCount; ++j)
     if (which.empty() || std::find(which.begin(), which.end(), j) != which.end())
       p.row(j) = (c + r * (hand.row(j).transpose() - c)).transpose();
-  return frame_of(p);
+  return p;
 }
 }  // namespace
 
@@ -368,7 +368,7 @@ TEST_CASE("the radius opens to what a joint did against its hand: a hand turning
   const auto tip = static_cast<size_t>(3 * hs::idx(hs::Joint::IndexTip));
   const auto run_up = [&](CorrectionBound& b) {
     for (int n = 0; n < 20; ++n) {
-      const auto x = turned(hand, n);
+      const auto x = frame_of(turned(hand, n));
       auto path = path_near(x, 2, 0.0, 0.0);
       b.apply(x, path);
     }
@@ -376,8 +376,8 @@ TEST_CASE("the radius opens to what a joint did against its hand: a hand turning
   {
     CorrectionBound b(2);
     run_up(b);
-    const auto before = turned(hand, 19);
-    const auto x = turned(hand, 44);
+    const auto before = frame_of(turned(hand, 19));
+    const auto x = frame_of(turned(hand, 44));
     CHECK(joint_dist(x, before, tip) > 0.03);
     auto path = path_near(before, 2, 0.0, 0.0);
     b.apply(x, path);
@@ -388,7 +388,7 @@ TEST_CASE("the radius opens to what a joint did against its hand: a hand turning
     // A joint that jumps against its hand while the hand turns as before is taken back whole.
     CorrectionBound b(2);
     run_up(b);
-    const auto clean = turned(hand, 20);
+    const auto clean = frame_of(turned(hand, 20));
     auto x = clean;
     x[tip + 1] += 0.03f;
     auto path = path_near(clean, 2, 0.0, 0.0);
@@ -403,14 +403,9 @@ TEST_CASE("the radius opens to what a joint did against its hand: a hand turning
     CorrectionBound b(2);
     run_up(b);
     std::vector<int> palm(hs::kPalmJoints.begin(), hs::kPalmJoints.end());
-    const auto clean = turned(hand, 20);
-    const hs::Pose at20 = [&] {
-      hs::Pose p;
-      for (int j = 0; j < kJointCount; ++j)
-        for (int c = 0; c < 3; ++c) p(j, c) = clean[static_cast<size_t>(3 * j + c)];
-      return p;
-    }();
-    const auto x = turned(at20, 30, palm);
+    const hs::Pose at20 = turned(hand, 20);
+    const auto clean = frame_of(at20);
+    const auto x = frame_of(turned(at20, 30, palm));
     const auto meta = static_cast<size_t>(3 * hs::idx(hs::Joint::IndexProximal));
     CHECK(joint_dist(x, clean, meta) > 0.02);
     auto path = path_near(clean, 2, 0.0, 0.0);

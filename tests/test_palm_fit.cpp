@@ -23,7 +23,6 @@ using hs::Pose;
 
 hs::HandSeries moving_hand(double seconds, double rate_hz = 90.0) { return hs::test::moving_hand(seconds, rate_hz, 11); }
 
-bool is_palm(int j) { return std::find(kPalmJoints.begin(), kPalmJoints.end(), j) != kPalmJoints.end(); }
 
 double palm_error_mm(const Pose& a, const Pose& b) {
   double s = 0.0;
@@ -45,7 +44,7 @@ TEST_CASE("Palm fit: white noise on the palm is taken out in the same frame, oth
     Pose row = noisy;
     fit.apply(row);
     for (int j = 0; j < hs::kJointCount; ++j)
-      if (!is_palm(j)) CHECK(row.row(j) == noisy.row(j));
+      if (!hs::is_palm_joint(j)) CHECK(row.row(j) == noisy.row(j));
     if (i < static_cast<size_t>(hs::kPalmMinRows)) CHECK(row == noisy);  // nothing before the template is taught
     if (i < 60) continue;
     in_err += palm_error_mm(noisy, truth.pos[i]);

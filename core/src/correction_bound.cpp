@@ -73,16 +73,21 @@ bool palm_motion(const float* from, const float* to, Rigid& out) noexcept {
 // explains the fingers' motion too (most of them moved less against it than in the world):
 // a palm that turned while the fingers stayed is an error in front (the palm fit misled by
 // many shifted joints, the `paper` preset's), not the hand's motion.
+// |p0 - 2 p1 + p2| with the two frames before moved onto this one by the hand's motion.
+double hand_second_difference(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1, const Eigen::Vector3d& p2,
+                              const Rigid& from1, const Rigid& from2) noexcept {
+  return (p0 - 2.0 * from1.apply(p1) + from2.apply(p2)).norm();
+}
 bool hand_motion(const float* x2, const float* x1, const float* x0, Rigid& from2, Rigid& from1) noexcept {
   if (!palm_motion(x1, x0, from1) || !palm_motion(x2, x0, from2)) return false;
   int with = 0, against = 0;
   for (int j = 0; j < kJointCount; ++j) {
-    if (std::find(kPalmJoints.begin(), kPalmJoints.end(), j) != kPalmJoints.end()) continue;
+    if (is_palm_joint(j)) continue;
     const size_t o = 3 * static_cast<size_t>(j);
     if (!finite_xyz(x0 + o) || !finite_xyz(x1 + o) || !finite_xyz(x2 + o)) continue;
     const Eigen::Vector3d p0 = load(x0 + o), p1 = load(x1 + o), p2 = load(x2 + o);
     const double world = (p0 - 2.0 * p1 + p2).norm();
-    const double hand = (p0 - 2.0 * from1.apply(p1) + from2.apply(p2)).norm();
+    const double hand = hand_second_difference(p0, p1, p2, from1, from2);
     ++(hand < world ? with : against);
   }
   return with > against;
@@ -276,7 +281,7 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std
     double a_hand = a;
     if (have2 && !measured) {
       if (hand_frame < 0) hand_frame = hand_motion(x_back(2), x_back(1), x_now, from2, from1) ? 1 : 0;
-      if (hand_frame > 0) a_hand = (xn - 2.0 * from1.apply(load(x1)) + from2.apply(load(x2))).norm();
+      if (hand_frame > 0) a_hand = hand_second_difference(xn, load(x1), load(x2), from1, from2);
     }
     const double r = std::max(noise_r, measured ? jump[ju] : a_hand);
     radius_[ju] = r;

@@ -33,6 +33,7 @@
 
 #include <Eigen/Core>
 
+#include <algorithm>
 #include <array>
 
 namespace hs {
@@ -42,6 +43,9 @@ inline constexpr std::array<int, 11> kPalmJoints = {
     idx(Joint::Palm),           idx(Joint::Wrist),          idx(Joint::ThumbMetacarpal), idx(Joint::IndexMetacarpal),
     idx(Joint::IndexProximal),  idx(Joint::MiddleMetacarpal), idx(Joint::MiddleProximal), idx(Joint::RingMetacarpal),
     idx(Joint::RingProximal),   idx(Joint::LittleMetacarpal), idx(Joint::LittleProximal)};
+constexpr bool is_palm_joint(int j) noexcept {
+  return std::find(kPalmJoints.begin(), kPalmJoints.end(), j) != kPalmJoints.end();
+}
 
 inline constexpr double kPalmTemplateRows = 120.0;  // rows in the template's running mean
 inline constexpr int kPalmMinRows = 5;              // rows that teach the template before the fit applies
