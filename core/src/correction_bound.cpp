@@ -134,6 +134,7 @@ void CorrectionBound::reset() noexcept {
   std::fill(x_.begin(), x_.end(), kNaNf);
   std::fill(disp_.begin(), disp_.end(), kNaNf);
   rough_.fill(0.0);
+  rough_before_.fill(0.0);
   count_.fill(0);
   radius_.fill(kInf);
   std::fill(bias_.begin(), bias_.end(), Eigen::Vector3d::Zero());
@@ -232,8 +233,9 @@ Eigen::Vector3d CorrectionBound::blended(size_t f, size_t j, const Eigen::Vector
 
 void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std::span<const double> noise2,
                             std::span<const double> jump, double measured_max_rms,
-                            std::span<const double> shape) noexcept {
+                            std::span<const double> shape, std::span<const bool> followed) noexcept {
   const bool have_shape = shape.size() >= kJointCount;
+  const bool have_followed = followed.size() >= kJointCount;
   const bool have_measured = noise2.size() >= kJointCount && jump.size() >= kJointCount;
   const auto gain_from = static_cast<size_t>(have_measured ? kPredictionGainFirstFrameMeasured : kPredictionGainFirstFrame);
   const auto F = static_cast<size_t>(frames_);
@@ -265,6 +267,14 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std
     const bool have1 = x1 && finite_xyz(x1), have2 = have1 && x2 && finite_xyz(x2);
     // The noise radius is the history's: this frame's own second difference only widens
     // the radius (an outlier is taken back) and does not yet count as noise.
+    // A row that follows a re-fit (InputNoise::followed: a jump that kept its bones and
+    // stayed, the tracker's new answer) is no noise: the re-fit's row is taken back out of
+    // the roughness, and this row's second difference (the re-fit again) neither enters it
+    // nor opens the radius. Left in, one 90 mm re-fit made the noise radius 30 mm for a
+    // second, and the network held the old finger.
+    const bool refit = have_followed && followed[ju];
+    if (refit) rough_[ju] = rough_before_[ju];
+    rough_before_[ju] = rough_[ju];
     const double s = std::sqrt(rough_[ju]);  // RMS second difference
     const bool measured = have_measured && (noise2[ju] <= measured_max_rms * measured_max_rms ||
                                             (have_shape && shape[ju] >= kMeasuredNoiseMinShape));
@@ -272,14 +282,14 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std
     double a = 0.0;  // |second difference| now, when the joint was seen in the two frames before
     if (have2) {
       a = (xn - 2.0 * load(x1) + load(x2)).norm();
-      rough_[ju] += running_weight(count_[ju], kCorrectionRoughnessFrames) * (a * a - rough_[ju]);
+      if (!refit) rough_[ju] += running_weight(count_[ju], kCorrectionRoughnessFrames) * (a * a - rough_[ju]);
     }
     // The radius opens to this frame's own second difference so that a one-frame outlier
     // is taken back whole; in the hand's frame, so that a hand that sweeps, stops or turns
     // as a whole is not held back by it (a Leap swipe stopping within a 30 Hz row: the
     // world's second difference let the network's overshoot through).
-    double a_hand = a;
-    if (have2 && !measured) {
+    double a_hand = refit ? 0.0 : a;
+    if (have2 && !measured && !refit) {
       if (hand_frame < 0) hand_frame = hand_motion(x_back(2), x_back(1), x_now, from2, from1) ? 1 : 0;
       if (hand_frame > 0) a_hand = hand_second_difference(xn, load(x1), load(x2), from1, from2);
     }

@@ -41,6 +41,7 @@ void InputNoise::reset() noexcept {
   bone_var_.fill(0.0);
   jump_.fill(0.0);
   stretched_.fill(false);
+  followed_.fill(false);
   noise2_.fill(0.0);
   smooth_n_.fill(0);
   bone_n_.fill(0);
@@ -48,6 +49,7 @@ void InputNoise::reset() noexcept {
   held_.fill(0);
   moved_.fill(false);
   follow_.fill(0);
+  returned_.fill(false);
   before_smooth2_.fill(0.0);
   smooth_abs_.fill(0.0);
   before_abs_.fill(0.0);
@@ -76,6 +78,7 @@ void InputNoise::push(double t, std::span<const float> x) noexcept {
   for (size_t ju = 0; ju < kJointCount; ++ju) {
     const size_t o = 3 * ju;
     jump_[ju] = 0.0;
+    followed_[ju] = false;
     res[ju].setConstant(std::numeric_limits<double>::quiet_NaN());
     const float* xj = x.data() + o;
     if (quad && finite_xyz(xj) && finite_xyz(rows_[0].data() + o) && finite_xyz(rows_[1].data() + o) &&
@@ -167,7 +170,12 @@ void InputNoise::push(double t, std::span<const float> x) noexcept {
       before_held_[ju] = held_[ju];
     }
     moved_[ju] = may_refit;
+    // A jump back to within half its length of where the joint was before the row it left
+    // (the end of an outlier) is followed as the rest are, but is no re-fit (followed()).
+    if (may_refit)
+      returned_[ju] = 4.0 * (at(xj) - at(rows_[1].data() + 3 * ju)).squaredNorm() < (at(xj) - at(rows_[0].data() + 3 * ju)).squaredNorm();
     if (jumped && (strained[ju] || follow_[ju] == 0)) jump_[ju] = std::sqrt(r2);
+    followed_[ju] = follow_[ju] > 0 && !returned_[ju];
     if (follow_[ju] > 0) --follow_[ju];
     const bool aside = aside_[ju] > 0;
     if (aside) --aside_[ju];

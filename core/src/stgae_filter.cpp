@@ -446,9 +446,18 @@ class StgaeFilter final : public PoseFilter {
       // streams only where that noise is no Gaussian in shape (the `paper` preset's shifts;
       // docs/STGAE.md "Heavy-tailed noise at K >= 2 streams").
       auto& bound = bounds_[static_cast<size_t>(phase)];
-      if (phases_ >= 2) bound.apply(frame, o.path, noise_.noise2(), noise_.jumps(), kMeasuredNoiseMaxRms, noise_.shapes());
-      else if (slow_rows()) bound.apply(frame, o.path, noise_.noise2(), noise_.jumps(), kMeasuredNoiseMaxRms);
-      else bound.apply(frame, o.path);
+      // Rows that follow a re-fit (a jump that kept its bones and stayed) are answered from
+      // the input, unless the joint's noise is a heavy tail of shifts: the `paper` preset's
+      // shifts keep their bones too, and one may land on a re-fit's rows (docs/STGAE.md
+      // "Rows after a re-fit").
+      for (size_t j = 0; j < kJointCount; ++j)
+        refit_[j] = noise_.followed()[j] && noise_.shapes()[j] >= kMeasuredNoiseMinShape;
+      if (phases_ >= 2)
+        bound.apply(frame, o.path, noise_.noise2(), noise_.jumps(), kMeasuredNoiseMaxRms, noise_.shapes(), refit_);
+      else if (slow_rows())
+        bound.apply(frame, o.path, noise_.noise2(), noise_.jumps(), kMeasuredNoiseMaxRms, {}, refit_);
+      else
+        bound.apply(frame, o.path, {}, {}, CorrectionBound::kUnlimitedRms, {}, refit_);
     }
     if (smoothed_) smoother_.apply(t, o.path);
     if (bounded_ && phases_ >= 2 && latest_ >= 0 && latest_ != phase && out_[static_cast<size_t>(latest_)].have)
@@ -493,6 +502,7 @@ class StgaeFilter final : public PoseFilter {
   bool guarded_ = true;
   OscillationGuard guard_;       // the whole hand shaken no more than the input (guarded_)
   InputNoise noise_;             // the input's noise at the input rate, for the trust region
+  std::array<bool, kJointCount> refit_{};  // per joint: this row follows a re-fit (push_frame)
   std::array<double, kJointCount> older_w_{};       // the older stream's weight per joint
   std::array<double, kJointCount> disagree2_{};     // mean squared disagreement of the two newest streams, m^2
   std::array<int, kJointCount> disagree_count_{};

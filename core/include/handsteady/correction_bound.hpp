@@ -140,9 +140,13 @@ class CorrectionBound {
   // Which rows teach the gain and the blend is the stream's own either way: any row
   // whose second difference is no outlier of its frames' (InputNoise's jumps include a
   // fast hand's rows, which the predictions must learn from most).
+  // With `followed` (per joint, InputNoise::followed: this row follows a tracker's re-fit,
+  // a jump that kept its bones and stayed), the joint's radius does not open to the row's
+  // second difference (the re-fit again), and neither that nor the re-fit row's own enters
+  // the stream's roughness: the answer follows the re-fit from its second row.
   void apply(std::span<const float> x, std::span<float> path, std::span<const double> noise2,
              std::span<const double> jump, double measured_max_rms = kUnlimitedRms,
-             std::span<const double> shape = {}) noexcept;
+             std::span<const double> shape = {}, std::span<const bool> followed = {}) noexcept;
   static constexpr double kUnlimitedRms = 1e9;
   int frames() const noexcept { return frames_; }
   // The radius of joint j after the last apply (m); infinity when it was not bound.
@@ -155,6 +159,7 @@ class CorrectionBound {
   std::vector<float> x_;       // input ring, hist_ frames
   std::vector<float> disp_;    // the network's predicted displacements per ring frame, (frames_ - 1) frames
   std::array<double, kJointCount> rough_{};  // mean squared second difference, m^2
+  std::array<double, kJointCount> rough_before_{};  // rough_ before the last row's sample (a re-fit's, taken back)
   std::array<int, kJointCount> count_{};     // second differences averaged so far
   std::array<double, kJointCount> radius_{};
   std::vector<Eigen::Vector3d> bias_;  // per path frame and joint: mean offset (f = 0) or excess displacement

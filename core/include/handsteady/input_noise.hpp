@@ -75,6 +75,11 @@ class InputNoise {
   // that evidence). An outlier of one joint mostly stretches one; the hand's motion keeps
   // them all.
   std::span<const bool> stretched() const noexcept { return stretched_; }
+  // Per joint: whether the last row follows a re-fit, a jump that kept its bones and
+  // stayed (while their quadratic runs through it; jump() is 0 on them), but not one back
+  // to within half its length of where the joint was the row before (an outlier's end):
+  // the tracker's new answer, whose jump is no noise (CorrectionBound::apply's `followed`).
+  std::span<const bool> followed() const noexcept { return followed_; }
   // The shape of joint j's smoothness residuals: the sum over axes of (E|r_axis|)^2 over
   // 2 / pi times E|r|^2, 1 for Gaussian jitter of any covariance (white or correlated,
   // isotropic or mostly in depth), over 1 for tremor, well under 1 for a heavy tail (most
@@ -94,7 +99,7 @@ class InputNoise {
     a.fill(1.0);
     return a;
   }();
-  std::array<bool, kJointCount> stretched_{};
+  std::array<bool, kJointCount> stretched_{}, followed_{};
   std::array<int, kJointCount> smooth_n_{}, bone_n_{};
   std::array<int, kJointCount> taint_{};  // rows still to come whose quadratic runs through a jump
   std::array<int, kJointCount> held_{};   // residuals held out in a row
@@ -102,6 +107,7 @@ class InputNoise {
   // to are rows_[1] and rows_[0] then); rows still to come in which the jump it made is
   // followed.
   std::array<bool, kJointCount> moved_{};
+  std::array<bool, kJointCount> returned_{};  // the last jump that may be a re-fit went back (followed())
   std::array<int, kJointCount> follow_{};
   // The smoothness mean, its count and the run of held rows as they were before the last
   // jump that may be a re-fit (taken back if it stays a second row); rows a re-fit that
