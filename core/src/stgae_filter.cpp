@@ -446,14 +446,16 @@ class StgaeFilter final : public PoseFilter {
       // streams only where that noise is no Gaussian in shape (the `paper` preset's shifts;
       // docs/STGAE.md "Heavy-tailed noise at K >= 2 streams").
       auto& bound = bounds_[static_cast<size_t>(phase)];
-      // Rows that follow a re-fit (a jump that kept its bones and stayed) are answered from
-      // the input, unless the joint's noise is a heavy tail of shifts: the `paper` preset's
-      // shifts keep their bones too, and one may land on a re-fit's rows (docs/STGAE.md
-      // "Rows after a re-fit").
+      // One stream's frames are the input's rows: a row that follows a re-fit (a jump that
+      // kept its bones and stayed) is answered from the input and its jump is no noise,
+      // unless the joint's noise is a heavy tail of shifts (the `paper` preset's keep their
+      // bones too, and one may last a second row; docs/STGAE.md "Rows after a re-fit"). At
+      // K >= 2 streams the measured radius already closes there (InputNoise's jump is 0),
+      // and a stream's last frame is K rows back, not the re-fit's row.
       for (size_t j = 0; j < kJointCount; ++j)
         refit_[j] = noise_.followed()[j] && noise_.shapes()[j] >= kMeasuredNoiseMinShape;
       if (phases_ >= 2)
-        bound.apply(frame, o.path, noise_.noise2(), noise_.jumps(), kMeasuredNoiseMaxRms, noise_.shapes(), refit_);
+        bound.apply(frame, o.path, noise_.noise2(), noise_.jumps(), kMeasuredNoiseMaxRms, noise_.shapes());
       else if (slow_rows())
         bound.apply(frame, o.path, noise_.noise2(), noise_.jumps(), kMeasuredNoiseMaxRms, {}, refit_);
       else
