@@ -14,6 +14,7 @@
 #include <Eigen/Geometry>
 
 #include <cmath>
+#include <cstdint>
 #include <numbers>
 #include <random>
 #include <vector>
@@ -465,39 +466,50 @@ TEST_CASE("PoseFilter adapter: at 90 Hz a clean hand writing fast is answered ne
   CHECK(err < 0.6 * err_free);
 }
 
-TEST_CASE("PoseFilter adapter: at 90 Hz a finger the tracker re-fits and keeps is followed from the next row") {
-  // Leap Motion re-fits a finger far away between two rows and keeps it there; raw shows
-  // it at once. Called a jump for three rows, it let the network hold the old finger.
+// A clean writing hand at `rate` Hz (irregular times, `seed`) whose index finger the
+// tracker turns by 70 degrees at row `first`, keeps there for `period` rows, turns back
+// and so on: how far the adapter's answer is from the finger in the three rows after each
+// turn, against the turn's size.
+struct KeptRefits {
+  double worst_after = 0.0, turn_size = 0.0;
+  int turns = 0;
+};
+KeptRefits kept_refits(double rate, double seconds, uint64_t seed, size_t first, size_t period) {
   const auto model = hs::test::shipped_model();
-  std::mt19937_64 rng(9);
-  const auto times = irregular_times(5.0, rng);
+  std::mt19937_64 rng(seed);
+  const auto times = irregular_times(seconds, rng, rate);
   const int base = hs::idx(hs::Joint::IndexProximal), tip = hs::idx(hs::Joint::IndexTip);
   auto filter = hs::make_stgae_filter(model, 0.0, 0, true);
   hs::Pose out;
-  double worst_after = 0.0, turn_size = 0.0;
-  int turns = 0;
+  KeptRefits r;
   for (size_t i = 0; i < times.size(); ++i) {
-    hs::Pose p = hs::test::writing_hand(times[i]);
-    // From row 120 on, every 60 rows, the finger turns by 70 degrees or back.
-    const bool turned = i >= 120 && ((i - 120) / 60) % 2 == 0;
-    if (turned) p = refitted(p);
-    filter->push(times[i], p);
-    const size_t since = i >= 120 ? (i - 120) % 60 : 99;
+    const hs::Pose p = hs::test::writing_hand(times[i]);
+    const bool turned = i >= first && ((i - first) / period) % 2 == 0;
+    const hs::Pose kept = turned ? refitted(p) : p;
+    filter->push(times[i], kept);
+    const size_t since = i >= first ? (i - first) % period : 99;
     if (since == 0) {
-      ++turns;
-      const hs::Pose before = hs::test::writing_hand(times[i]);
-      turn_size = std::max(turn_size, (p.row(tip) - before.row(tip)).norm());
+      ++r.turns;
+      r.turn_size = std::max(r.turn_size, (refitted(p).row(tip) - p.row(tip)).norm());
     }
     if (since >= 1 && since <= 3) {
       filter->estimate(times[i], out);
-      for (int j = base + 1; j <= tip; ++j) worst_after = std::max(worst_after, (out.row(j) - p.row(j)).norm());
+      for (int j = base + 1; j <= tip; ++j) r.worst_after = std::max(r.worst_after, (out.row(j) - kept.row(j)).norm());
     }
   }
-  MESSAGE("a finger re-fitted " << turn_size * 1e3 << " mm away, " << turns << " times: the answer at most " << worst_after * 1e3
+  return r;
+}
+
+TEST_CASE("PoseFilter adapter: at 90 Hz a finger the tracker re-fits and keeps is followed from the next row") {
+  // Leap Motion re-fits a finger far away between two rows and keeps it there; raw shows
+  // it at once. Called a jump for three rows, it let the network hold the old finger.
+  // From row 120 on, every 60 rows, the finger turns by 70 degrees or back.
+  const KeptRefits r = kept_refits(90.0, 5.0, 9, 120, 60);
+  MESSAGE("a finger re-fitted " << r.turn_size * 1e3 << " mm away, " << r.turns << " times: the answer at most " << r.worst_after * 1e3
                                 << " mm from it in the three rows after");
-  REQUIRE(turns >= 4);
-  REQUIRE(turn_size > 0.03);
-  CHECK(worst_after < 0.1 * turn_size);
+  REQUIRE(r.turns >= 4);
+  REQUIRE(r.turn_size > 0.03);
+  CHECK(r.worst_after < 0.1 * r.turn_size);
 }
 
 TEST_CASE("PoseFilter adapter: at 30 Hz (one stream) a finger the tracker re-fits and keeps is followed from the next row") {
@@ -509,31 +521,20 @@ TEST_CASE("PoseFilter adapter: at 30 Hz (one stream) a finger the tracker re-fit
   // stayed) now closes the radius there and takes the re-fit out of the noise; the
   // re-fit's own row is still held (a one-row shift looks the same), and a turn of one
   // row that comes back is still taken back.
+  // From row 40 on, every 30 rows, the finger turns by 70 degrees or back; in the other
+  // stream it turns for one row in 30 alone.
+  const KeptRefits r = kept_refits(30.0, 12.0, 11, 40, 30);
   const auto model = hs::test::shipped_model();
   std::mt19937_64 rng(11);
   const auto times = irregular_times(12.0, rng, 30.0);
-  const int base = hs::idx(hs::Joint::IndexProximal), tip = hs::idx(hs::Joint::IndexTip);
-  auto refits = hs::make_stgae_filter(model, 0.0, 0, true), blips = hs::make_stgae_filter(model, 0.0, 0, true);
+  const int tip = hs::idx(hs::Joint::IndexTip);
+  auto blips = hs::make_stgae_filter(model, 0.0, 0, true);
   hs::Pose out;
-  double worst_after = 0.0, turn_size = 0.0, blip_kept = 0.0;
-  int turns = 0, blipped = 0;
+  double blip_kept = 0.0;
+  int blipped = 0;
   for (size_t i = 0; i < times.size(); ++i) {
     const hs::Pose p = hs::test::writing_hand(times[i]);
-    // From row 40 on, every 30 rows, the finger turns by 70 degrees or back; in the
-    // other stream it turns for one row in 30 alone.
-    const size_t since = i >= 40 ? (i - 40) % 30 : 99;
-    const bool turned = i >= 40 && ((i - 40) / 30) % 2 == 0;
-    const hs::Pose kept = turned ? refitted(p) : p;
-    refits->push(times[i], kept);
-    if (since == 0) {
-      ++turns;
-      turn_size = std::max(turn_size, (refitted(p).row(tip) - p.row(tip)).norm());
-    }
-    if (since >= 1 && since <= 3) {
-      refits->estimate(times[i], out);
-      for (int j = base + 1; j <= tip; ++j) worst_after = std::max(worst_after, (out.row(j) - kept.row(j)).norm());
-    }
-    const bool blip = since == 0;
+    const bool blip = i >= 40 && (i - 40) % 30 == 0;
     blips->push(times[i], blip ? refitted(p) : p);
     if (blip) {
       ++blipped;
@@ -542,11 +543,11 @@ TEST_CASE("PoseFilter adapter: at 30 Hz (one stream) a finger the tracker re-fit
       blip_kept = std::max(blip_kept, (out.row(tip) - p.row(tip)).norm() / (refitted(p).row(tip) - p.row(tip)).norm());
     }
   }
-  MESSAGE("a finger re-fitted " << turn_size * 1e3 << " mm away, " << turns << " times: the answer at most " << worst_after * 1e3
+  MESSAGE("a finger re-fitted " << r.turn_size * 1e3 << " mm away, " << r.turns << " times: the answer at most " << r.worst_after * 1e3
                                 << " mm from it in the three rows after; turns of one row: at most " << blip_kept
                                 << " of the turn kept, " << blipped << " times");
-  REQUIRE(turns >= 6);
-  REQUIRE(turn_size > 0.03);
-  CHECK(worst_after < 0.15 * turn_size);
+  REQUIRE(r.turns >= 6);
+  REQUIRE(r.turn_size > 0.03);
+  CHECK(r.worst_after < 0.15 * r.turn_size);
   CHECK(blip_kept < 0.5);
 }

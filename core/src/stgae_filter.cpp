@@ -452,14 +452,15 @@ class StgaeFilter final : public PoseFilter {
       // bones too, and one may last a second row; docs/STGAE.md "Rows after a re-fit"). At
       // K >= 2 streams the measured radius already closes there (InputNoise's jump is 0),
       // and a stream's last frame is K rows back, not the re-fit's row.
-      for (size_t j = 0; j < kJointCount; ++j)
-        refit_[j] = noise_.followed()[j] && noise_.shapes()[j] >= kMeasuredNoiseMinShape;
-      if (phases_ >= 2)
+      if (phases_ >= 2) {
         bound.apply(frame, o.path, noise_.noise2(), noise_.jumps(), kMeasuredNoiseMaxRms, noise_.shapes());
-      else if (slow_rows())
-        bound.apply(frame, o.path, noise_.noise2(), noise_.jumps(), kMeasuredNoiseMaxRms, {}, refit_);
-      else
-        bound.apply(frame, o.path, {}, {}, CorrectionBound::kUnlimitedRms, {}, refit_);
+      } else {
+        std::array<bool, kJointCount> refit{};
+        for (size_t j = 0; j < kJointCount; ++j)
+          refit[j] = noise_.followed()[j] && noise_.shapes()[j] >= kMeasuredNoiseMinShape;
+        if (slow_rows()) bound.apply(frame, o.path, noise_.noise2(), noise_.jumps(), kMeasuredNoiseMaxRms, {}, refit);
+        else bound.apply(frame, o.path, {}, {}, CorrectionBound::kUnlimitedRms, {}, refit);
+      }
     }
     if (smoothed_) smoother_.apply(t, o.path);
     if (bounded_ && phases_ >= 2 && latest_ >= 0 && latest_ != phase && out_[static_cast<size_t>(latest_)].have)
@@ -504,7 +505,6 @@ class StgaeFilter final : public PoseFilter {
   bool guarded_ = true;
   OscillationGuard guard_;       // the whole hand shaken no more than the input (guarded_)
   InputNoise noise_;             // the input's noise at the input rate, for the trust region
-  std::array<bool, kJointCount> refit_{};  // per joint: this row follows a re-fit (push_frame)
   std::array<double, kJointCount> older_w_{};       // the older stream's weight per joint
   std::array<double, kJointCount> disagree2_{};     // mean squared disagreement of the two newest streams, m^2
   std::array<int, kJointCount> disagree_count_{};
