@@ -293,7 +293,8 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std
       if (hand_frame < 0) hand_frame = hand_motion(x_back(2), x_back(1), x_now, from2, from1) ? 1 : 0;
       if (hand_frame > 0) a_hand = hand_second_difference(xn, load(x1), load(x2), from1, from2);
     }
-    const double r = std::max(noise_r, measured ? jump[ju] : a_hand);
+    // Nor to InputNoise's jump on a re-fit's own row that is followed (refit_share()).
+    const double r = std::max(noise_r, measured ? (refit ? 0.0 : jump[ju]) : a_hand);
     radius_[ju] = r;
     float* dj = path.data() + o;
     if (!finite_xyz(dj)) continue;

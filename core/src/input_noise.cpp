@@ -50,6 +50,8 @@ void InputNoise::reset() noexcept {
   moved_.fill(false);
   follow_.fill(0);
   returned_.fill(false);
+  refit_share_ = 0.0;
+  refit_seen_ = 0;
   before_smooth2_.fill(0.0);
   smooth_abs_.fill(0.0);
   before_abs_.fill(0.0);
@@ -145,6 +147,10 @@ void InputNoise::push(double t, std::span<const float> x) noexcept {
     };
     const bool confirmed_last = follow_[ju] == kQuadRows - 1;  // the last row confirmed a re-fit
     const bool refit = moved_[ju] && !strained[ju] && stays(0, 1);
+    if (moved_[ju] && !returned_[ju]) {  // a candidate's second row: did it stay?
+      refit_seen_ = std::min(refit_seen_ + 1, kInputNoiseRefitRows);
+      refit_share_ += ((refit ? 1.0 : 0.0) - refit_share_) / refit_seen_;
+    }
     if (refit) {
       follow_[ju] = kQuadRows;
     } else if (follow_[ju] > 0 && (strained[ju] || !jumped)) {
@@ -201,8 +207,12 @@ void InputNoise::push(double t, std::span<const float> x) noexcept {
     if (parent < 0 || !moved_[ju] || !moved_[static_cast<size_t>(parent)]) continue;
     paired[ju] = paired[static_cast<size_t>(parent)] = true;
   }
-  for (size_t ju = 0; ju < kJointCount; ++ju)
+  // Where this hand's candidates mostly stayed, this row's are followed from now.
+  const bool refits_stay = refit_share() > kInputNoiseRefitShare;
+  for (size_t ju = 0; ju < kJointCount; ++ju) {
     if (!paired[ju]) moved_[ju] = false;
+    if (refits_stay && moved_[ju] && !returned_[ju]) followed_[ju] = true;
+  }
   // Rigidity: each bone's length against its running mean, but not in a row where either
   // end is a jump held out above.
   for (size_t ju = 0; ju < kJointCount; ++ju) {

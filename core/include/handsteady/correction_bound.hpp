@@ -142,8 +142,10 @@ class CorrectionBound {
   // fast hand's rows, which the predictions must learn from most).
   // With `followed` (per joint, InputNoise::followed: this row follows a tracker's re-fit,
   // a jump that kept its bones and stayed), the joint's radius does not open to the row's
-  // second difference (the re-fit again), and neither that nor the re-fit row's own enters
-  // the stream's roughness: the answer follows the re-fit from its second row.
+  // second difference (the re-fit again) nor to its jump, and neither that nor the row
+  // before's enters the stream's roughness (the re-fit row's, or where the re-fit's own
+  // row is followed, the row before's): the answer follows the re-fit from its second
+  // row, or from its first.
   void apply(std::span<const float> x, std::span<float> path, std::span<const double> noise2,
              std::span<const double> jump, double measured_max_rms = kUnlimitedRms,
              std::span<const double> shape = {}, std::span<const bool> followed = {}) noexcept;

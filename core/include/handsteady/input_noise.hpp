@@ -10,9 +10,10 @@
 // The estimate is the larger of the two: E|n|^2 of the joint, m^2. A row far off the
 // quadratic is a jump (an outlier), held out of both with the rows it spoils, unless the
 // joint moved with its parent: fast motion moves a finger, an outlier one joint; a jump
-// that keeps the bones and stays is followed from its second row. The smoothness residuals'
-// shape tells Gaussian noise from a heavy tail of shifts that no jump bar catches. Per
-// hand, per input row, no allocation, noexcept. docs/STGAE.md "Trust region".
+// that keeps the bones and stays is followed from its second row (from its first where the
+// hand's re-fits have mostly stayed). The smoothness residuals' shape tells Gaussian noise
+// from a heavy tail of shifts that no jump bar catches. Per hand, per input row, no
+// allocation, noexcept. docs/STGAE.md "Trust region".
 #include "handsteady/skeleton.hpp"
 
 #include <array>
@@ -42,6 +43,17 @@ inline constexpr double kInputNoiseShared = 0.5;
 // one. Either way the rows are held out of the means.
 inline constexpr double kInputNoiseStretch = 3.0;
 inline constexpr double kInputNoiseStretchFloor = 1e-3;  // m
+// Where the hand's recent candidate re-fits (jumps that kept their bones, moved with a
+// neighbour and were no outlier's end) mostly stayed a second row, a new one is followed
+// from its own row: the stream is a tracker that re-fits (Leap Motion swings a thumb tip
+// 116 mm in one row and keeps it), not one whose shifts come back (the papers'). The share
+// is a running mean over the last kInputNoiseRefitRows candidates, used from
+// kInputNoiseRefitSeen on; over kInputNoiseRefitShare it follows (0.8 on the Leap takes
+// and FPHA's `paper` preset: lower, FPHA's shifts that stay a second row lift the share
+// over the bar; docs/STGAE.md "Rows after a re-fit").
+inline constexpr int kInputNoiseRefitRows = 20;
+inline constexpr int kInputNoiseRefitSeen = 3;
+inline constexpr double kInputNoiseRefitShare = 0.8;
 // A sample enters the running means only up to this many RMS of the mean it enters, so one
 // outlier does not inflate the noise of the next 30 rows (after kInputNoiseWarmRows
 // samples; before them everything counts).
@@ -79,7 +91,12 @@ class InputNoise {
   // stayed (while their quadratic runs through it; jump() is 0 on them), but not one back
   // to within half its length of where the joint was the row before (an outlier's end):
   // the tracker's new answer, whose jump is no noise (CorrectionBound::apply's `followed`).
+  // Also the re-fit's own row (a candidate, jump() > 0), where refit_share() is over
+  // kInputNoiseRefitShare.
   std::span<const bool> followed() const noexcept { return followed_; }
+  // The share of the hand's recent candidate re-fits that stayed a second row, 0 before
+  // kInputNoiseRefitSeen of them.
+  double refit_share() const noexcept { return refit_seen_ >= kInputNoiseRefitSeen ? refit_share_ : 0.0; }
   // The shape of joint j's smoothness residuals: the sum over axes of (E|r_axis|)^2 over
   // 2 / pi times E|r|^2, 1 for Gaussian jitter of any covariance (white or correlated,
   // isotropic or mostly in depth), over 1 for tremor, well under 1 for a heavy tail (most
@@ -108,6 +125,8 @@ class InputNoise {
   // followed.
   std::array<bool, kJointCount> moved_{};
   std::array<bool, kJointCount> returned_{};  // the last jump that may be a re-fit went back (followed())
+  double refit_share_ = 0.0;  // running mean of whether candidates stayed (refit_share())
+  int refit_seen_ = 0;        // candidates in it, at most kInputNoiseRefitRows
   std::array<int, kJointCount> follow_{};
   // The smoothness mean, its count and the run of held rows as they were before the last
   // jump that may be a re-fit (taken back if it stays a second row); rows a re-fit that
