@@ -48,9 +48,9 @@ inline constexpr double kInputNoiseStretchFloor = 1e-3;  // m
 // from its own row: the stream is a tracker that re-fits (Leap Motion swings a thumb tip
 // 116 mm in one row and keeps it), not one whose shifts come back (the papers'). The share
 // is a running mean over the last kInputNoiseRefitRows candidates, used from
-// kInputNoiseRefitSeen on; over kInputNoiseRefitShare it follows (0.8 on the Leap takes
-// and FPHA's `paper` preset: lower, FPHA's shifts that stay a second row lift the share
-// over the bar; docs/STGAE.md "Rows after a re-fit").
+// kInputNoiseRefitSeen on; over kInputNoiseRefitShare it follows (0.8 from the Leap takes
+// and FPHA's `paper` preset: at 0.65 or 0.5 FPHA's shifts that happen to stay a second row
+// lift the share over the bar more often; docs/STGAE.md "A re-fit's own row").
 inline constexpr int kInputNoiseRefitRows = 20;
 inline constexpr int kInputNoiseRefitSeen = 3;
 inline constexpr double kInputNoiseRefitShare = 0.8;
