@@ -3,7 +3,8 @@
 // own jump and whether it stretched a bone, the residuals' shape (Gaussian or a heavy tail),
 // and a tracker's re-fit of a finger that keeps its bones and stays, which is followed; and
 // through the adapter, a clean hand writing fast at 90 Hz is answered near its input, not
-// where the network would drag it, and a re-fitted finger is followed.
+// where the network would drag it, and a re-fitted finger is followed; the share of re-fits
+// that stayed outlives a tracking gap, not a reset.
 #include "handsteady/correction_bound.hpp"
 #include "handsteady/input_noise.hpp"
 #include "handsteady/stgae_filter.hpp"
@@ -572,4 +573,68 @@ TEST_CASE("PoseFilter adapter: at 30 and 23.5 Hz (one stream) a finger the track
   CHECK(slow.worst_after < 0.15 * slow.turn_size);
   CHECK(slow.worst_own < 0.15 * slow.turn_size);
   CHECK(blip_kept < 0.5);
+}
+
+TEST_CASE("A tracking gap keeps what the re-fits said of the tracker; a reset does not") {
+  // The share of re-fits that stayed is the tracker's habit, not the hand's history: after
+  // a gap (InputNoise::resume, PoseFilter::restart: the same hand resumes) a re-fit is
+  // followed from its own row at once; after a reset (another hand, another tracker) only
+  // once three have been seen. Through the adapter at 30 Hz too (one stream).
+  std::mt19937_64 rng(5);
+  const auto times = irregular_times(4.0, rng, 30.0);
+  const int base = hs::idx(hs::Joint::IndexProximal), tip = hs::idx(hs::Joint::IndexTip);
+  const auto model = hs::test::shipped_model();
+  InputNoise resumed, reset;
+  auto restarted = hs::make_stgae_filter(model, 0.0, 0, true);
+  auto fresh = hs::make_stgae_filter(model, 0.0, 0, true);
+  // A take whose index finger turns by 70 degrees every 15 rows from row 20 (kept), fed
+  // from times[from] on, offset to start at t0.
+  const auto take = [&](size_t rows, double t0, const auto& feed) {
+    for (size_t i = 0; i < rows && i < times.size(); ++i) {
+      const hs::Pose p = hs::test::writing_hand(times[i]);
+      const bool turned = i >= 20 && ((i - 20) / 15) % 2 == 0;
+      feed(i, t0 + times[i], turned ? refitted(p) : p, p);
+    }
+  };
+  take(100, 0.0, [&](size_t, double t, const hs::Pose& q, const hs::Pose&) {
+    resumed.push(t, frame_of(q));
+    reset.push(t, frame_of(q));
+    restarted->push(t, q);
+    fresh->push(t, q);
+  });
+  const double share = resumed.refit_share();
+  resumed.resume();
+  reset.reset();
+  restarted->restart();
+  fresh->reset();
+  // The next take, after a gap: its first turn (row 20), in its own row.
+  bool followed_resumed = false, followed_reset = false;
+  double off_restarted = 0.0, off_fresh = 0.0, size = 0.0;
+  hs::Pose out;
+  take(21, 10.0, [&](size_t i, double t, const hs::Pose& q, const hs::Pose& p) {
+    resumed.push(t, frame_of(q));
+    reset.push(t, frame_of(q));
+    restarted->push(t, q);
+    fresh->push(t, q);
+    if (i != 20) return;
+    followed_resumed = resumed.followed()[static_cast<size_t>(tip)];
+    followed_reset = reset.followed()[static_cast<size_t>(tip)];
+    size = (q.row(tip) - p.row(tip)).norm();
+    for (int j = base + 1; j <= tip; ++j) {
+      restarted->estimate(t, out);
+      off_restarted = std::max(off_restarted, (out.row(j) - q.row(j)).norm());
+      fresh->estimate(t, out);
+      off_fresh = std::max(off_fresh, (out.row(j) - q.row(j)).norm());
+    }
+  });
+  MESSAGE("share of re-fits that stayed before the gap " << share << "; after it the first turn (" << size * 1e3
+                                                          << " mm) followed from its own row: resumed " << followed_resumed << ", reset "
+                                                          << followed_reset << "; the adapter's answer off it by " << off_restarted * 1e3
+                                                          << " mm after restart(), " << off_fresh * 1e3 << " mm after reset()");
+  REQUIRE(share > hs::kInputNoiseRefitShare);
+  REQUIRE(size > 0.03);
+  CHECK(followed_resumed);
+  CHECK_FALSE(followed_reset);
+  CHECK(off_restarted < 0.15 * size);
+  CHECK(off_fresh > 0.5 * size);
 }

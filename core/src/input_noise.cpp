@@ -61,6 +61,14 @@ void InputNoise::reset() noexcept {
   aside_.fill(0);
 }
 
+void InputNoise::resume() noexcept {
+  const double share = refit_share_;
+  const int seen = refit_seen_;
+  reset();
+  refit_share_ = share;
+  refit_seen_ = seen;
+}
+
 void InputNoise::push(double t, std::span<const float> x) noexcept {
   if (x.size() < kFs) return;
   // Lagrange weights of the quadratic through the three rows before, at t; white noise

@@ -62,11 +62,17 @@ class StgaeFilter final : public PoseFilter {
     reset();
   }
 
-  void reset() noexcept override {
+  void reset() noexcept override { reset_state(false); }
+  // The same hand resumes after a tracking gap (the layer): as reset(), but the input's
+  // noise keeps what it learnt of the tracker (InputNoise::resume).
+  void restart() noexcept override { reset_state(true); }
+
+  void reset_state(bool same_tracker) noexcept {
     restart_grid();
     gain_.reset();
     lag_cap_.reset();
-    noise_.reset();
+    if (same_tracker) noise_.resume();
+    else noise_.reset();
     intervals_.reset();
     mismatch_rows_ = 0;
     last_t_ = std::numeric_limits<double>::quiet_NaN();
@@ -134,7 +140,7 @@ class StgaeFilter final : public PoseFilter {
     // A tracking gap longer than kModelResetGapS: the history no longer describes the hand
     // (the sampling rate still does).
     const bool gap = have_grid_ && t - last_valid_t_ > kModelResetGapS;
-    if (gap) noise_.reset();
+    if (gap) noise_.resume();
     noise_.push(t, std::span<const float>(cur_.data(), cur_.size()));
     if (gap) restart_grid();
     else if (have_grid_) intervals_.record(t - last_valid_t_);

@@ -70,6 +70,10 @@ inline constexpr double kInputNoiseFloor = 1e-4;
 class InputNoise {
  public:
   void reset() noexcept;
+  // A tracking gap of the same hand: the rows before it are no history, but the tracker is
+  // the same, and so is how its re-fits behave: as reset(), but refit_share() is kept (the
+  // benchmark's takes follow one another after a gap; the layer resumes a hand after one).
+  void resume() noexcept;
   // Row x (3 * kJointCount, joint-major xyz, NaN = missing) at time t (increasing).
   void push(double t, std::span<const float> x) noexcept;
   // E|n|^2 of joint j (m^2), 0 before any evidence.
