@@ -575,7 +575,7 @@ TEST_CASE("PoseFilter adapter: at 30 and 23.5 Hz (one stream) a finger the track
   CHECK(blip_kept < 0.5);
 }
 
-TEST_CASE("A tracking gap keeps what the re-fits said of the tracker; a reset does not") {
+TEST_CASE("A tracking gap keeps what the re-fits said of the tracker, a reset does not") {
   // The share of re-fits that stayed is the tracker's habit, not the hand's history: after
   // a gap (InputNoise::resume, PoseFilter::restart: the same hand resumes) a re-fit is
   // followed from its own row at once; after a reset (another hand, another tracker) only
