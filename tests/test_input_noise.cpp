@@ -587,8 +587,8 @@ TEST_CASE("A tracking gap keeps what the re-fits said of the tracker, a reset do
   InputNoise resumed, reset;
   auto restarted = hs::make_stgae_filter(model, 0.0, 0, true);
   auto fresh = hs::make_stgae_filter(model, 0.0, 0, true);
-  // A take whose index finger turns by 70 degrees every 15 rows from row 20 (kept), fed
-  // from times[from] on, offset to start at t0.
+  // A take of `rows` rows from t0 whose index finger turns by 70 degrees every 15 rows from
+  // row 20 (kept): feed(row, time, what the tracker gives, the hand unturned).
   const auto take = [&](size_t rows, double t0, const auto& feed) {
     for (size_t i = 0; i < rows && i < times.size(); ++i) {
       const hs::Pose p = hs::test::writing_hand(times[i]);
@@ -596,12 +596,14 @@ TEST_CASE("A tracking gap keeps what the re-fits said of the tracker, a reset do
       feed(i, t0 + times[i], turned ? refitted(p) : p, p);
     }
   };
-  take(100, 0.0, [&](size_t, double t, const hs::Pose& q, const hs::Pose&) {
-    resumed.push(t, frame_of(q));
-    reset.push(t, frame_of(q));
+  const auto push_all = [&](double t, const hs::Pose& q) {
+    const auto f = frame_of(q);
+    resumed.push(t, f);
+    reset.push(t, f);
     restarted->push(t, q);
     fresh->push(t, q);
-  });
+  };
+  take(100, 0.0, [&](size_t, double t, const hs::Pose& q, const hs::Pose&) { push_all(t, q); });
   const double share = resumed.refit_share();
   resumed.resume();
   reset.reset();
@@ -610,21 +612,18 @@ TEST_CASE("A tracking gap keeps what the re-fits said of the tracker, a reset do
   // The next take, after a gap: its first turn (row 20), in its own row.
   bool followed_resumed = false, followed_reset = false;
   double off_restarted = 0.0, off_fresh = 0.0, size = 0.0;
-  hs::Pose out;
+  hs::Pose out_restarted, out_fresh;
   take(21, 10.0, [&](size_t i, double t, const hs::Pose& q, const hs::Pose& p) {
-    resumed.push(t, frame_of(q));
-    reset.push(t, frame_of(q));
-    restarted->push(t, q);
-    fresh->push(t, q);
+    push_all(t, q);
     if (i != 20) return;
     followed_resumed = resumed.followed()[static_cast<size_t>(tip)];
     followed_reset = reset.followed()[static_cast<size_t>(tip)];
     size = (q.row(tip) - p.row(tip)).norm();
+    restarted->estimate(t, out_restarted);
+    fresh->estimate(t, out_fresh);
     for (int j = base + 1; j <= tip; ++j) {
-      restarted->estimate(t, out);
-      off_restarted = std::max(off_restarted, (out.row(j) - q.row(j)).norm());
-      fresh->estimate(t, out);
-      off_fresh = std::max(off_fresh, (out.row(j) - q.row(j)).norm());
+      off_restarted = std::max(off_restarted, (out_restarted.row(j) - q.row(j)).norm());
+      off_fresh = std::max(off_fresh, (out_fresh.row(j) - q.row(j)).norm());
     }
   });
   MESSAGE("share of re-fits that stayed before the gap " << share << "; after it the first turn (" << size * 1e3

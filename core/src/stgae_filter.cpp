@@ -67,19 +67,6 @@ class StgaeFilter final : public PoseFilter {
   // noise keeps what it learnt of the tracker (InputNoise::resume).
   void restart() noexcept override { reset_state(true); }
 
-  void reset_state(bool same_tracker) noexcept {
-    restart_grid();
-    gain_.reset();
-    lag_cap_.reset();
-    if (same_tracker) noise_.resume();
-    else noise_.reset();
-    intervals_.reset();
-    mismatch_rows_ = 0;
-    last_t_ = std::numeric_limits<double>::quiet_NaN();
-    last_valid_t_ = -std::numeric_limits<double>::infinity();
-    seen_t_.fill(-std::numeric_limits<double>::infinity());
-  }
-
   bool push(double t, const Pose& observed) noexcept override {
     if (!is_next_time(t, last_t_)) return false;
     lag_cap_.clear();
@@ -247,6 +234,21 @@ class StgaeFilter final : public PoseFilter {
   double last_time() const noexcept override { return last_t_; }
 
  private:
+  // reset() (another hand, or none before) and restart() (the same hand after a gap: the
+  // input's noise keeps what it learnt of the tracker).
+  void reset_state(bool same_tracker) noexcept {
+    restart_grid();
+    gain_.reset();
+    lag_cap_.reset();
+    if (same_tracker) noise_.resume();
+    else noise_.reset();
+    intervals_.reset();
+    mismatch_rows_ = 0;
+    last_t_ = std::numeric_limits<double>::quiet_NaN();
+    last_valid_t_ = -std::numeric_limits<double>::infinity();
+    seen_t_.fill(-std::numeric_limits<double>::infinity());
+  }
+
   // Rows seen before the phase count is first chosen, from the median of their intervals.
   static constexpr int kRateRows = 4;
   // The rate is then watched over the median of the last kRateWindow intervals; a mode
