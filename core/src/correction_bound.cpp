@@ -102,6 +102,24 @@ Eigen::Vector3d significant(const Eigen::Vector3d& mean, double spread2, int cou
   const double n = mean.norm();
   return n > se2 ? Eigen::Vector3d(mean * (1.0 - se2 / n)) : Eigen::Vector3d::Zero();
 }
+// The whole hand's share of a frame's corrections: their median over the joints, each axis,
+// of the joints whose row is no jump (radius at its noise: an outlier taken back is no
+// share of the hand's); zero where there are none.
+Eigen::Vector3d whole_hand_share(const std::array<Eigen::Vector3d, kJointCount>& c,
+                                 const std::array<double, kJointCount>& radius,
+                                 const std::array<double, kJointCount>& noise_radius) noexcept {
+  Eigen::Vector3d m = Eigen::Vector3d::Zero();
+  std::array<double, kJointCount> v{};
+  for (int axis = 0; axis < 3; ++axis) {
+    size_t n = 0;
+    for (size_t j = 0; j < kJointCount; ++j)
+      if (c[j].allFinite() && !(radius[j] > noise_radius[j])) v[n++] = c[j][axis];
+    if (n == 0) return m;
+    std::nth_element(v.begin(), v.begin() + static_cast<long>(n / 2), v.begin() + static_cast<long>(n));
+    m[axis] = v[n / 2];
+  }
+  return m;
+}
 }  // namespace
 
 CorrectionBound::CorrectionBound(int frames)
@@ -135,6 +153,8 @@ void CorrectionBound::reset() noexcept {
   std::fill(disp_.begin(), disp_.end(), kNaNf);
   rough_.fill(0.0);
   rough_before_.fill(0.0);
+  rough_hand_.fill(0.0);
+  rough_hand_before_.fill(0.0);
   count_.fill(0);
   radius_.fill(kInf);
   std::fill(bias_.begin(), bias_.end(), Eigen::Vector3d::Zero());
@@ -253,6 +273,12 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std
   // first needs it (where the noise is measured, most rows none does).
   Rigid from1, from2;
   int hand_frame = n_ >= 2 ? -1 : 0;  // -1: not looked for yet
+  // Per joint, from the first pass to the second: the correction before the radius (NaN:
+  // the joint is not bound), the RMS second difference, this row's, the noise radius, the
+  // radius in the hand's frame.
+  std::array<Eigen::Vector3d, kJointCount> cs;
+  std::array<double, kJointCount> s_of{}, a_of{}, nr_of{}, rh_of{};
+  cs.fill(none());
   for (int j = 0; j < kJointCount; ++j) {
     const auto ju = static_cast<size_t>(j);
     const size_t o = 3 * ju;
@@ -273,17 +299,18 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std
     // nor opens the radius. Left in, one 90 mm re-fit made the noise radius 30 mm for a
     // second, and the network held the old finger.
     const bool refit = have_followed && followed[ju];
-    if (refit) rough_[ju] = rough_before_[ju];
+    if (refit) rough_[ju] = rough_before_[ju], rough_hand_[ju] = rough_hand_before_[ju];
     rough_before_[ju] = rough_[ju];
+    rough_hand_before_[ju] = rough_hand_[ju];
     const double s = std::sqrt(rough_[ju]);  // RMS second difference
     const bool measured = have_measured && (noise2[ju] <= measured_max_rms * measured_max_rms ||
                                             (have_shape && shape[ju] >= kMeasuredNoiseMinShape));
     const double noise_r = measured ? kMeasuredNoiseFactor * std::sqrt(noise2[ju]) : kCorrectionNoiseFactor * s / std::sqrt(6.0);
+    // The same noise read in the hand's frame (rough_hand_): what bounds the joint's own
+    // correction against its hand (below).
+    const double noise_rh = measured ? noise_r : kCorrectionNoiseFactor * std::sqrt(rough_hand_[ju]) / std::sqrt(6.0);
     double a = 0.0;  // |second difference| now, when the joint was seen in the two frames before
-    if (have2) {
-      a = (xn - 2.0 * load(x1) + load(x2)).norm();
-      if (!refit) rough_[ju] += running_weight(count_[ju], kCorrectionRoughnessFrames) * (a * a - rough_[ju]);
-    }
+    if (have2) a = (xn - 2.0 * load(x1) + load(x2)).norm();
     // The radius opens to this frame's own second difference so that a one-frame outlier
     // is taken back whole; in the hand's frame, so that a hand that sweeps, stops or turns
     // as a whole is not held back by it (a Leap swipe stopping within a 30 Hz row: the
@@ -292,6 +319,13 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std
     if (have2 && !measured && !refit) {
       if (hand_frame < 0) hand_frame = hand_motion(x_back(2), x_back(1), x_now, from2, from1) ? 1 : 0;
       if (hand_frame > 0) a_hand = hand_second_difference(xn, load(x1), load(x2), from1, from2);
+    }
+    // Both roughnesses take this row's second difference after the radius is set (it does
+    // not yet count as noise); the hand's is the world's where no hand motion was found.
+    if (have2 && !refit) {
+      const double w = running_weight(count_[ju], kCorrectionRoughnessFrames);
+      rough_[ju] += w * (a * a - rough_[ju]);
+      rough_hand_[ju] += w * (a_hand * a_hand - rough_hand_[ju]);
     }
     // Nor to InputNoise's jump on a re-fit's own row that is followed (refit_share()).
     const double r = std::max(noise_r, measured ? (refit ? 0.0 : jump[ju]) : a_hand);
@@ -313,6 +347,36 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std
       const double from_c = correlated_noise2(ju, c);
       c *= explained_share(corr2_[ju], measured ? std::min(from_c, kCorrectionShareFactor * noise2[ju]) : from_c);
     }
+    cs[ju] = c;
+    s_of[ju] = s;
+    a_of[ju] = a;
+    nr_of[ju] = noise_r;
+    // The radius for the joint's own correction: where the hand-frame noise is over
+    // kMeasuredNoiseMaxRms, the world's, as for measured noise over it (a heavy tail of
+    // shifts, the `paper` preset's, reads ~10 mm RMS and takes 50 mm shifts back: three
+    // RMS of it, without the hand's motion in it, held them millimetres short).
+    rh_of[ju] = measured || noise_rh > kCorrectionNoiseFactor * kMeasuredNoiseMaxRms ? r : std::max(noise_rh, a_hand);
+  }
+  // The radius in the hand's frame bounds what a joint is moved against its hand; the whole
+  // hand's correction (the median over joints of theirs, each axis: an outlier taken back
+  // does not move it) keeps the world's radius, which a hand's motion, or a tremor of the
+  // whole hand the network removes, opens. A hand that sweeps at 30 Hz has centimetres of
+  // second difference at every joint, which in the world let the network's errors of a
+  // joint's own through by millimetres (docs/STGAE.md "The roughness in the hand's frame").
+  const Eigen::Vector3d m = whole_hand_share(cs, radius_, nr_of);
+  for (int j = 0; j < kJointCount; ++j) {
+    const auto ju = static_cast<size_t>(j);
+    const size_t o = 3 * ju;
+    if (!cs[ju].allFinite()) continue;
+    const Eigen::Vector3d xn = load(x_now + o);
+    float* dj = path.data() + o;
+    const Eigen::Vector3d d = load(dj);
+    const float* x1 = n_ >= 1 ? x_back(1) + o : nullptr;
+    const bool have1 = x1 && finite_xyz(x1);
+    const double s = s_of[ju], a = a_of[ju], noise_r = nr_of[ju], r = radius_[ju];
+    Eigen::Vector3d c = cs[ju];
+    const Eigen::Vector3d o0 = Eigen::Vector3d::Zero();
+    if (rh_of[ju] < r) c = clamp_into(m, o0, r) + clamp_into(Eigen::Vector3d(c - m), o0, rh_of[ju]);
     const Eigen::Vector3d den = clamp_into(Eigen::Vector3d(xn + c), xn, r);
     store(den, dj);
     den_back(0, ju) = den;

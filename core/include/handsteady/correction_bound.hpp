@@ -28,7 +28,12 @@ namespace hs {
 // hand's frame (the palm's rigid motion over the three frames taken out) where the palm
 // moved as one body and that motion explains most fingers' too: a hand that sweeps,
 // stops or turns as a whole does not open the radius to the network's lag, a joint that
-// jumped against its hand still does. The offsets are means over
+// jumped against its hand still does. Where the noise is not measured, each joint's
+// correction is split into the whole hand's share (the median over joints) and its own:
+// the first is bound by that radius, the second by the same radius read in the hand's
+// frame (the roughness of the second differences taken there), where that noise is under
+// kMeasuredNoiseMaxRms: a hand that moves as a whole opens the one, not the other. The
+// offsets are means over
 // about kCorrectionBiasFrames frames, each step clipped to the noise radius, applied only
 // beyond two of their standard errors.
 inline constexpr double kCorrectionNoiseFactor = 3.0;
@@ -162,6 +167,7 @@ class CorrectionBound {
   std::vector<float> disp_;    // the network's predicted displacements per ring frame, (frames_ - 1) frames
   std::array<double, kJointCount> rough_{};  // mean squared second difference, m^2
   std::array<double, kJointCount> rough_before_{};  // rough_ before the last row's sample (a re-fit's, taken back)
+  std::array<double, kJointCount> rough_hand_{}, rough_hand_before_{};  // the same in the hand's frame (the world's where none)
   std::array<int, kJointCount> count_{};     // second differences averaged so far
   std::array<double, kJointCount> radius_{};
   std::vector<Eigen::Vector3d> bias_;  // per path frame and joint: mean offset (f = 0) or excess displacement
