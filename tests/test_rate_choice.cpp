@@ -20,11 +20,15 @@ namespace {
 // Counts its rows and answers its own id in every coordinate.
 struct Probe final : hs::PoseFilter {
   double id = 0.0;
-  int pushes = 0, resets = 0;
+  int pushes = 0, resets = 0, restarts = 0;
   double last = std::nan("");
   explicit Probe(double i) : id(i) {}
   void reset() noexcept override {
     ++resets;
+    last = std::nan("");
+  }
+  void restart() noexcept override {
+    ++restarts;
     last = std::nan("");
   }
   bool push(double t, const hs::Pose&) noexcept override {
@@ -113,6 +117,30 @@ TEST_CASE("irregular times choose by their median, a lasting change of rate move
   CHECK(answer(*p.filter) == 30.0);
   CHECK(p.slow->resets == resets + 1);
   CHECK(p.slow->last == doctest::Approx(t));
+}
+
+TEST_CASE("a restart of the same hand restarts each filter and keeps the rate chosen, a reset does not") {
+  Pair p = probes();
+  const hs::Pose pose = hs::test::synthetic_hand();
+  double t = 0.0;
+  for (int i = 0; i < 40; ++i) REQUIRE(p.filter->push(t += 1.0 / 90.0, pose));
+  REQUIRE(answer(*p.filter) == 90.0);
+  const int slow_resets = p.slow->resets, fast_resets = p.fast->resets, slow_pushes = p.slow->pushes;
+  p.filter->restart();
+  CHECK(p.slow->restarts == 1);
+  CHECK(p.fast->restarts == 1);
+  CHECK(p.slow->resets == slow_resets);  // what each learnt of the hand is kept
+  CHECK(p.fast->resets == fast_resets);
+  CHECK(std::isnan(p.filter->last_time()));
+  CHECK(answer(*p.filter) == 90.0);  // the same runtime: no new choice
+  // Tracking resumes after a second's gap at the same rate: the 90 Hz model takes every row.
+  t += 1.0;
+  for (int i = 0; i < 20; ++i) REQUIRE(p.filter->push(t += 1.0 / 90.0, pose));
+  CHECK(p.slow->pushes == slow_pushes);
+  CHECK(answer(*p.filter) == 90.0);
+  p.filter->reset();
+  CHECK(p.fast->resets == fast_resets + 1);
+  CHECK(answer(*p.filter) == 30.0);  // another hand: chosen anew
 }
 
 TEST_CASE("the chooser allocates nothing per row") {

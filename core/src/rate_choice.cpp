@@ -37,6 +37,15 @@ class RateChosenFilter final : public PoseFilter {
     last_t_ = std::numeric_limits<double>::quiet_NaN();
   }
 
+  // The same hand resumes (PoseFilter::restart): each filter keeps what it learnt of the
+  // hand and of its tracker (its own restart), and the rate stays chosen: the runtime is
+  // the same. The times start anew, so the gap is no interval of the rate watch.
+  void restart() noexcept override {
+    for (RateFilter& f : filters_) f.filter->restart();
+    mismatch_ = 0;
+    last_t_ = std::numeric_limits<double>::quiet_NaN();
+  }
+
   bool push(double t, const Pose& observed) noexcept override {
     if (!is_next_time(t, last_t_)) return false;
     if (!std::isnan(last_t_)) intervals_.record(t - last_t_);
