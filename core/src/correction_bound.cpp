@@ -351,11 +351,13 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std
     s_of[ju] = s;
     a_of[ju] = a;
     nr_of[ju] = noise_r;
-    // The radius for the joint's own correction: where the hand-frame noise is over
-    // kMeasuredNoiseMaxRms, the world's, as for measured noise over it (a heavy tail of
-    // shifts, the `paper` preset's, reads ~10 mm RMS and takes 50 mm shifts back: three
-    // RMS of it, without the hand's motion in it, held them millimetres short).
-    rh_of[ju] = measured || noise_rh > kCorrectionNoiseFactor * kMeasuredNoiseMaxRms ? r : std::max(noise_rh, a_hand);
+    // The radius for the joint's own correction. The world's where the hand-frame noise is
+    // over kMeasuredNoiseMaxRms, as for measured noise over it (a heavy tail of shifts, the
+    // `paper` preset's, reads ~10 mm RMS and takes 50 mm shifts back: three RMS of it,
+    // without the hand's motion in it, held them millimetres short), and where the joint
+    // has no second difference this row (back from a gap: nothing says what it did
+    // against its hand; on FPHA `paper`, with its occlusions, most of what was left held).
+    rh_of[ju] = measured || !have2 || noise_rh > kCorrectionNoiseFactor * kMeasuredNoiseMaxRms ? r : std::max(noise_rh, a_hand);
   }
   // The radius in the hand's frame bounds what a joint is moved against its hand; the whole
   // hand's correction (the median over joints of theirs, each axis: an outlier taken back

@@ -32,7 +32,8 @@ namespace hs {
 // correction is split into the whole hand's share (the median over joints) and its own:
 // the first is bound by that radius, the second by the same radius read in the hand's
 // frame (the roughness of the second differences taken there), where that noise is under
-// kMeasuredNoiseMaxRms: a hand that moves as a whole opens the one, not the other. The
+// kMeasuredNoiseMaxRms and the joint was seen in the two frames before: a hand that moves
+// as a whole opens the one, not the other. The
 // offsets are means over
 // about kCorrectionBiasFrames frames, each step clipped to the noise radius, applied only
 // beyond two of their standard errors.
