@@ -33,10 +33,9 @@ namespace hs {
 // the first is bound by that radius, the second by the same radius read in the hand's
 // frame (the roughness of the second differences taken there), where that noise is under
 // kMeasuredNoiseMaxRms and the joint was seen in the two frames before: a hand that moves
-// as a whole opens the one, not the other. The
-// offsets are means over
-// about kCorrectionBiasFrames frames, each step clipped to the noise radius, applied only
-// beyond two of their standard errors.
+// as a whole opens the one, not the other. The offsets are means over about
+// kCorrectionBiasFrames frames, each step clipped to the noise radius, applied only beyond
+// two of their standard errors.
 inline constexpr double kCorrectionNoiseFactor = 3.0;
 // With the noise measured at the input rate (InputNoise: motion does not feed it, so it is
 // not inflated the way the stream's second difference is), radius = max(this factor times
