@@ -155,6 +155,7 @@ void CorrectionBound::reset() noexcept {
   rough_before_.fill(0.0);
   rough_hand_.fill(0.0);
   rough_hand_before_.fill(0.0);
+  hand_jump_.fill(0.0);
   count_.fill(0);
   radius_.fill(kInf);
   std::fill(bias_.begin(), bias_.end(), Eigen::Vector3d::Zero());
@@ -253,8 +254,10 @@ Eigen::Vector3d CorrectionBound::blended(size_t f, size_t j, const Eigen::Vector
 
 void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std::span<const double> noise2,
                             std::span<const double> jump, double measured_max_rms,
-                            std::span<const double> shape, std::span<const bool> followed) noexcept {
+                            std::span<const double> shape, std::span<const bool> followed,
+                            std::span<const bool> stretched) noexcept {
   const bool have_shape = shape.size() >= kJointCount;
+  const bool have_stretched = stretched.size() >= kJointCount;
   const bool have_followed = followed.size() >= kJointCount;
   const bool have_measured = noise2.size() >= kJointCount && jump.size() >= kJointCount;
   const auto gain_from = static_cast<size_t>(have_measured ? kPredictionGainFirstFrameMeasured : kPredictionGainFirstFrame);
@@ -286,6 +289,8 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std
     corr_[slot * kJointCount + ju] = none();
     den_back(0, ju) = none();
     for (size_t f = 1; f < F; ++f) applied_back(0, f, ju) = gain_out_back(0, f, ju) = cv_less_back(0, f, ju) = none();
+    const double jump_before = hand_jump_[ju];  // the row before's jump against the hand (0: none, or unseen)
+    hand_jump_[ju] = 0.0;
     if (!finite_xyz(x_now + o)) continue;
     const Eigen::Vector3d xn = load(x_now + o);
     const float* x1 = n_ >= 1 ? x_back(1) + o : nullptr;
@@ -328,7 +333,12 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std
       rough_hand_[ju] += w * (a_hand * a_hand - rough_hand_[ju]);
     }
     // Nor to InputNoise's jump on a re-fit's own row that is followed (refit_share()).
-    const double r = std::max(noise_r, measured ? (refit ? 0.0 : jump[ju]) : a_hand);
+    // A joint still off its bones (InputNoise::stretched) after a jump against its hand is
+    // an outlier that lasts: its second difference is back to nothing (shifted now and the
+    // row before alike), and the radius opens to the row before's jump. A re-fit that
+    // stays looks the same to the second differences but keeps its bones.
+    const bool off_bones = have_stretched && stretched[ju];
+    const double r = std::max(noise_r, measured ? (refit ? 0.0 : jump[ju]) : std::max(a_hand, off_bones ? jump_before : 0.0));
     radius_[ju] = r;
     float* dj = path.data() + o;
     if (!finite_xyz(dj)) continue;
@@ -356,8 +366,12 @@ void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std
     // `paper` preset's, reads ~10 mm RMS and takes 50 mm shifts back: three RMS of it,
     // without the hand's motion in it, held them millimetres short), and where the joint
     // has no second difference this row (back from a gap: nothing says what it did
-    // against its hand; on FPHA `paper`, with its occlusions, most of what was left held).
-    rh_of[ju] = measured || !have2 || noise_rh > kCorrectionNoiseFactor * kMeasuredNoiseMaxRms ? r : std::max(noise_rh, a_hand);
+    // against its hand; on FPHA `paper`, with its occlusions, most of what was left held),
+    // and where its bones are off their length (an outlier: no motion with the hand).
+    rh_of[ju] = measured || !have2 || off_bones || noise_rh > kCorrectionNoiseFactor * kMeasuredNoiseMaxRms
+                    ? r
+                    : std::max(noise_rh, a_hand);
+    if (!measured && have2 && a_hand > noise_rh) hand_jump_[ju] = a_hand;
   }
   // The radius in the hand's frame bounds what a joint is moved against its hand; the whole
   // hand's correction (the median over joints of theirs, each axis: an outlier taken back

@@ -459,15 +459,18 @@ class StgaeFilter final : public PoseFilter {
       // unless the joint's noise is a heavy tail of shifts (the `paper` preset's keep their
       // bones too, and one may last a second row; docs/STGAE.md "Rows after a re-fit"). At
       // K >= 2 streams the measured radius already closes there (InputNoise's jump is 0),
-      // and a stream's last frame is K rows back, not the re-fit's row.
+      // and a stream's last frame is K rows back, not the re-fit's row. A joint whose bones are
+      // off their length is no motion with its hand: an outlier, taken back on the rows it
+      // lasts (CorrectionBound::apply's `stretched`).
       if (phases_ >= 2) {
         bound.apply(frame, o.path, noise_.noise2(), noise_.jumps(), kMeasuredNoiseMaxRms, noise_.shapes());
       } else {
         std::array<bool, kJointCount> refit{};
         for (size_t j = 0; j < kJointCount; ++j)
           refit[j] = noise_.followed()[j] && noise_.shapes()[j] >= kMeasuredNoiseMinShape;
-        if (slow_rows()) bound.apply(frame, o.path, noise_.noise2(), noise_.jumps(), kMeasuredNoiseMaxRms, {}, refit);
-        else bound.apply(frame, o.path, {}, {}, CorrectionBound::kUnlimitedRms, {}, refit);
+        if (slow_rows())
+          bound.apply(frame, o.path, noise_.noise2(), noise_.jumps(), kMeasuredNoiseMaxRms, {}, refit, noise_.stretched());
+        else bound.apply(frame, o.path, {}, {}, CorrectionBound::kUnlimitedRms, {}, refit, noise_.stretched());
       }
     }
     if (smoothed_) smoother_.apply(t, o.path);

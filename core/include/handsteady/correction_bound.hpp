@@ -151,9 +151,15 @@ class CorrectionBound {
   // before's enters the stream's roughness (the re-fit row's, or where the re-fit's own
   // row is followed, the row before's): the answer follows the re-fit from its second
   // row, or from its first.
+  // With `stretched` (per joint, InputNoise::stretched: a bone it ends is off its length),
+  // where the noise is not measured, the joint's correction is bound by the world's radius
+  // alone, which after a row that jumped against the hand opens to that jump: an outlier
+  // that lasts rows is still off its bones on its later rows, whose second differences are
+  // nothing; a re-fit that stays keeps them.
   void apply(std::span<const float> x, std::span<float> path, std::span<const double> noise2,
              std::span<const double> jump, double measured_max_rms = kUnlimitedRms,
-             std::span<const double> shape = {}, std::span<const bool> followed = {}) noexcept;
+             std::span<const double> shape = {}, std::span<const bool> followed = {},
+             std::span<const bool> stretched = {}) noexcept;
   static constexpr double kUnlimitedRms = 1e9;
   int frames() const noexcept { return frames_; }
   // The radius of joint j after the last apply (m); infinity when it was not bound.
@@ -168,6 +174,7 @@ class CorrectionBound {
   std::array<double, kJointCount> rough_{};  // mean squared second difference, m^2
   std::array<double, kJointCount> rough_before_{};  // rough_ before the last row's sample (a re-fit's, taken back)
   std::array<double, kJointCount> rough_hand_{}, rough_hand_before_{};  // the same in the hand's frame (the world's where none)
+  std::array<double, kJointCount> hand_jump_{};  // the last row's jump against the hand (its hand-frame radius), else 0
   std::array<int, kJointCount> count_{};     // second differences averaged so far
   std::array<double, kJointCount> radius_{};
   std::vector<Eigen::Vector3d> bias_;  // per path frame and joint: mean offset (f = 0) or excess displacement
