@@ -497,6 +497,34 @@ TEST_CASE("an outlier that lasts three rows is taken back on its third, where it
   CHECK(refit_off > 0.003);
 }
 
+TEST_CASE("on a whole hand's own row followed, the row before stays in the roughness") {
+  // One stream; a clean still hand steps 5 mm in one row, then 30 mm in the next, and
+  // stays; every joint followed on the 30 mm row and the two after (InputNoise::followed).
+  // A followed row takes the row before's second difference back out of the roughness (on
+  // the row after a re-fit that is the re-fit's). On a whole hand's own row
+  // (InputNoise::hand_refit) the row before is no re-fit's but the hand's motion setting
+  // off, and stays: the noise radius after it is what that step says.
+  const hs::Pose hand = hs::test::synthetic_hand();
+  const auto radius_after = [&](bool hand_moved) {
+    CorrectionBound b(2);
+    std::array<bool, kJointCount> all{};
+    all.fill(true);
+    for (int n = 0; n < 24; ++n) {
+      const double dx = n >= 20 ? 0.035 : n == 19 ? 0.005 : 0.0;
+      const auto x = frame_of(hand.rowwise() + Eigen::RowVector3d(dx, 0, 0));
+      auto path = path_near(x, 2, 0.0, 0.0);
+      const bool followed = n >= 20 && n <= 22;
+      b.apply(x, path, {}, {}, CorrectionBound::kUnlimitedRms, {}, followed ? std::span<const bool>(all) : std::span<const bool>(),
+              {}, hand_moved && n == 20);
+    }
+    return b.radius(hs::idx(hs::Joint::IndexTip));
+  };
+  const double hand_r = radius_after(true), refit_r = radius_after(false);
+  MESSAGE("the radius after the whole hand's 30 mm row: " << hand_r * 1e3 << " mm; after a re-fit's: " << refit_r * 1e3 << " mm");
+  CHECK(hand_r > 0.001);
+  CHECK(refit_r < 0.0001);
+}
+
 TEST_CASE("predicted displacements the input's future does not confirm are taken back, a hand setting off keeps its") {
   // 30 Hz, 1 mm of white jitter. For 3 s the hand is still and the network answers it
   // exactly but predicts it moving 2 mm a period back and forth at 10 Hz (a tremor it

@@ -50,6 +50,7 @@ void InputNoise::reset() noexcept {
   moved_.fill(false);
   follow_.fill(0);
   returned_.fill(false);
+  hand_refit_ = false;
   refit_share_ = 0.0;
   refit_seen_ = 0;
   before_smooth2_.fill(0.0);
@@ -215,8 +216,15 @@ void InputNoise::push(double t, std::span<const float> x) noexcept {
     if (parent < 0 || !moved_[ju] || !moved_[static_cast<size_t>(parent)]) continue;
     paired[ju] = paired[static_cast<size_t>(parent)] = true;
   }
-  // Where this hand's candidates mostly stayed, this row's are followed from now.
-  const bool refits_stay = refit_share() > kInputNoiseRefitShare;
+  // Where this hand's candidates mostly stayed, this row's are followed from now; where
+  // they are most of the hand (kInputNoiseHandRefitShare of the joints seen), from now too.
+  int seen = 0, candidates = 0;
+  for (size_t ju = 0; ju < kJointCount; ++ju) {
+    seen += finite_xyz(x.data() + 3 * ju) ? 1 : 0;
+    candidates += paired[ju] && !returned_[ju] ? 1 : 0;
+  }
+  hand_refit_ = seen > 0 && candidates >= kInputNoiseHandRefitShare * seen;
+  const bool refits_stay = hand_refit_ || refit_share() > kInputNoiseRefitShare;
   for (size_t ju = 0; ju < kJointCount; ++ju) {
     if (!paired[ju]) moved_[ju] = false;
     if (refits_stay && moved_[ju] && !returned_[ju]) followed_[ju] = true;

@@ -469,8 +469,10 @@ class StgaeFilter final : public PoseFilter {
         for (size_t j = 0; j < kJointCount; ++j)
           refit[j] = noise_.followed()[j] && noise_.shapes()[j] >= kMeasuredNoiseMinShape;
         if (slow_rows())
-          bound.apply(frame, o.path, noise_.noise2(), noise_.jumps(), kMeasuredNoiseMaxRms, {}, refit, noise_.stretched());
-        else bound.apply(frame, o.path, {}, {}, CorrectionBound::kUnlimitedRms, {}, refit, noise_.stretched());
+          bound.apply(frame, o.path, noise_.noise2(), noise_.jumps(), kMeasuredNoiseMaxRms, {}, refit, noise_.stretched(),
+                      noise_.hand_refit());
+        else
+          bound.apply(frame, o.path, {}, {}, CorrectionBound::kUnlimitedRms, {}, refit, noise_.stretched(), noise_.hand_refit());
       }
     }
     if (smoothed_) smoother_.apply(t, o.path);

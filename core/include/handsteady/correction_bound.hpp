@@ -156,10 +156,13 @@ class CorrectionBound {
   // alone, which after a row that jumped against the hand opens to that jump: an outlier
   // that lasts rows is still off its bones on its later rows, whose second differences are
   // nothing; a re-fit that stays keeps them.
+  // With `followed_hand` (InputNoise::hand_refit: the joints followed are most of the hand,
+  // on their own row), the row before is no re-fit's and stays in the roughness, and this
+  // row's second difference enters it as any row's (the row after takes it back).
   void apply(std::span<const float> x, std::span<float> path, std::span<const double> noise2,
              std::span<const double> jump, double measured_max_rms = kUnlimitedRms,
              std::span<const double> shape = {}, std::span<const bool> followed = {},
-             std::span<const bool> stretched = {}) noexcept;
+             std::span<const bool> stretched = {}, bool followed_hand = false) noexcept;
   static constexpr double kUnlimitedRms = 1e9;
   int frames() const noexcept { return frames_; }
   // The radius of joint j after the last apply (m); infinity when it was not bound.

@@ -54,6 +54,13 @@ inline constexpr double kInputNoiseStretchFloor = 1e-3;  // m
 inline constexpr int kInputNoiseRefitRows = 20;
 inline constexpr int kInputNoiseRefitSeen = 3;
 inline constexpr double kInputNoiseRefitShare = 0.8;
+// Where at least this share of the joints seen are candidate re-fits in one row (most of
+// the hand jumped as rigid chains: Leap Motion opening a whole hand 40-116 mm in one row at
+// 23.5 Hz, a re-fit of the hand or its motion faster than the rows), they are followed from
+// their own row whatever the share above: an outlier is one joint, the papers' shifts a few
+// and their chains. The Leap takes at 23.5-27 Hz (scripts/leap_rates.sh; docs/STGAE.md "Most
+// of the hand in one row").
+inline constexpr double kInputNoiseHandRefitShare = 0.5;
 // A sample enters the running means only up to this many RMS of the mean it enters, so one
 // outlier does not inflate the noise of the next 30 rows (after kInputNoiseWarmRows
 // samples; before them everything counts).
@@ -96,8 +103,12 @@ class InputNoise {
   // to within half its length of where the joint was the row before (an outlier's end):
   // the tracker's new answer, whose jump is no noise (CorrectionBound::apply's `followed`).
   // Also the re-fit's own row (a candidate, jump() > 0), where refit_share() is over
-  // kInputNoiseRefitShare.
+  // kInputNoiseRefitShare or the row's candidates are most of the hand (hand_refit()).
   std::span<const bool> followed() const noexcept { return followed_; }
+  // Whether the last row's followed joints are most of the hand on their own row
+  // (kInputNoiseHandRefitShare): a re-fit of the hand or its motion faster than the rows,
+  // whose row before is no re-fit's (CorrectionBound::apply's `followed_hand`).
+  bool hand_refit() const noexcept { return hand_refit_; }
   // The share of the hand's recent candidate re-fits that stayed a second row, 0 before
   // kInputNoiseRefitSeen of them.
   double refit_share() const noexcept { return refit_seen_ >= kInputNoiseRefitSeen ? refit_share_ : 0.0; }
@@ -129,6 +140,7 @@ class InputNoise {
   // followed.
   std::array<bool, kJointCount> moved_{};
   std::array<bool, kJointCount> returned_{};  // the last jump that may be a re-fit went back (followed())
+  bool hand_refit_ = false;  // hand_refit()
   double refit_share_ = 0.0;  // running mean of whether candidates stayed (refit_share())
   int refit_seen_ = 0;        // candidates in it, at most kInputNoiseRefitRows
   std::array<int, kJointCount> follow_{};
