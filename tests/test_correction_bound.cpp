@@ -414,13 +414,20 @@ TEST_CASE("the radius opens to what a joint did against its hand: a hand turning
   }
 }
 
+namespace {
+// The hand at frame n of a 40 mm sweep to and fro at 2 Hz, 30 frames a second.
+std::vector<float> swept(const hs::Pose& hand, int n) {
+  return frame_of(hand.rowwise() + Eigen::RowVector3d(0.04 * std::sin(2 * M_PI * 2.0 * n / 30.0), 0, 0));
+}
+}  // namespace
+
 TEST_CASE("a hand that sweeps as a whole: each joint's own correction is held to the hand's frame, the whole hand's is not") {
   // One stream at 30 Hz; a clean hand sweeping 40 mm to and fro at 2 Hz (7 mm of second
   // difference a frame at every joint, all of it the hand's motion). The world's roughness
   // would give the network a radius of ~6 mm for errors of its own at each joint; in the
   // hand's frame the input is still, and a joint may move only with the hand.
   const hs::Pose hand = hs::test::synthetic_hand();
-  const auto at = [&](int n) { return frame_of(hand.rowwise() + Eigen::RowVector3d(0.04 * std::sin(2 * M_PI * 2.0 * n / 30.0), 0, 0)); };
+  const auto at = [&](int n) { return swept(hand, n); };
   std::mt19937_64 rng(7);
   std::normal_distribution<double> noise(0.0, 0.002 / std::sqrt(3.0));
   {
@@ -466,7 +473,7 @@ TEST_CASE("an outlier that lasts three rows is taken back on its third, where it
   // outlier. A re-fit that stays looks the same to the second differences but keeps its
   // bones: there the radius stays at the noise.
   const hs::Pose hand = hs::test::synthetic_hand();
-  const auto at = [&](int n) { return frame_of(hand.rowwise() + Eigen::RowVector3d(0.04 * std::sin(2 * M_PI * 2.0 * n / 30.0), 0, 0)); };
+  const auto at = [&](int n) { return swept(hand, n); };
   const auto tip = static_cast<size_t>(3 * hs::idx(hs::Joint::IndexTip));
   const auto tip_j = static_cast<size_t>(hs::idx(hs::Joint::IndexTip));
   const auto parent = static_cast<size_t>(hs::kXrParent[tip_j]);

@@ -33,14 +33,15 @@ std::vector<float> frame_of(const hs::Pose& p) {
   return f;
 }
 
-// A tracker's re-fit of the index finger: turned by 70 degrees about its proximal joint,
-// every bone keeping its length.
-hs::Pose refitted(hs::Pose p) {
-  const int base = hs::idx(hs::Joint::IndexProximal), tip = hs::idx(hs::Joint::IndexTip);
+// Joints base + 1 .. tip turned by 70 degrees about joint base, every bone keeping its length.
+hs::Pose chain_turned(hs::Pose p, int base, int tip) {
   const Eigen::Matrix3d turn = Eigen::AngleAxisd(1.2, Eigen::Vector3d(1.0, 0.3, 0.2).normalized()).toRotationMatrix();
   for (int j = base + 1; j <= tip; ++j) p.row(j) = ((p.row(j) - p.row(base)) * turn.transpose() + p.row(base)).eval();
   return p;
 }
+
+// A tracker's re-fit of the index finger: turned about its proximal joint.
+hs::Pose refitted(const hs::Pose& p) { return chain_turned(p, hs::idx(hs::Joint::IndexProximal), hs::idx(hs::Joint::IndexTip)); }
 
 // Times at `rate` Hz with each interval 0.8-1.2 periods (the benchmark's irregular times).
 std::vector<double> irregular_times(double seconds, std::mt19937_64& rng, double rate = 90.0) {
@@ -379,11 +380,9 @@ namespace {
 // Fingers turned by 70 degrees about their metacarpals (every bone keeping its length): a
 // tracker's re-fit of those fingers, or their motion faster than the rows.
 hs::Pose fingers_turned(hs::Pose p, const std::vector<hs::Joint>& metacarpals) {
-  const Eigen::Matrix3d turn = Eigen::AngleAxisd(1.2, Eigen::Vector3d(1.0, 0.3, 0.2).normalized()).toRotationMatrix();
   for (const hs::Joint m : metacarpals) {
     const int base = hs::idx(m);
-    const int tip = m == hs::Joint::ThumbMetacarpal ? hs::idx(hs::Joint::ThumbTip) : base + 4;
-    for (int j = base + 1; j <= tip; ++j) p.row(j) = ((p.row(j) - p.row(base)) * turn.transpose() + p.row(base)).eval();
+    p = chain_turned(p, base, m == hs::Joint::ThumbMetacarpal ? hs::idx(hs::Joint::ThumbTip) : base + 4);
   }
   return p;
 }

@@ -468,11 +468,10 @@ class StgaeFilter final : public PoseFilter {
         std::array<bool, kJointCount> refit{};
         for (size_t j = 0; j < kJointCount; ++j)
           refit[j] = noise_.followed()[j] && noise_.shapes()[j] >= kMeasuredNoiseMinShape;
-        if (slow_rows())
-          bound.apply(frame, o.path, noise_.noise2(), noise_.jumps(), kMeasuredNoiseMaxRms, {}, refit, noise_.stretched(),
-                      noise_.hand_refit());
-        else
-          bound.apply(frame, o.path, {}, {}, CorrectionBound::kUnlimitedRms, {}, refit, noise_.stretched(), noise_.hand_refit());
+        const bool slow = slow_rows();  // only there is the noise measured
+        bound.apply(frame, o.path, slow ? noise_.noise2() : std::span<const double>(),
+                    slow ? noise_.jumps() : std::span<const double>(), slow ? kMeasuredNoiseMaxRms : CorrectionBound::kUnlimitedRms,
+                    {}, refit, noise_.stretched(), noise_.hand_refit());
       }
     }
     if (smoothed_) smoother_.apply(t, o.path);
