@@ -138,8 +138,8 @@ TEST_CASE("corrections far beyond the input's noise are shrunk to the share the 
     auto p_exact = clean, p_erring = clean;
     for (auto& v : p_erring) v += static_cast<float>(own(rng));
     const auto asked = p_erring;
-    exact.apply(x, p_exact, noise2, jump);
-    erring.apply(x, p_erring, noise2, jump);
+    exact.apply(x, p_exact, {.noise2 = noise2, .jump = jump});
+    erring.apply(x, p_erring, {.noise2 = noise2, .jump = jump});
     if (n < 60) continue;
     for (size_t i = 0; i < kFs; i += 3) {
       const Eigen::Vector3d t(clean[i], clean[i + 1], clean[i + 2]), xi(x[i], x[i + 1], x[i + 2]);
@@ -227,7 +227,7 @@ TEST_CASE("with the noise measured too, a slow error of the network's own is shr
     add_drag(p, n / 30.0, drag_phase);
     auto at_twice = x;
     for (size_t i = 0; i < kFs; ++i) at_twice[i] += static_cast<float>(twice * static_cast<double>(p[i] - x[i]));
-    b.apply(x, p, noise2, jump);
+    b.apply(x, p, {.noise2 = noise2, .jump = jump});
     if (n < 90) continue;
     for (size_t i = 0; i < kFs; i += 3) {
       e_raw += joint_dist(x, clean, i);
@@ -254,12 +254,12 @@ TEST_CASE("measured noise over the limit keeps the stream's own radius unless Ga
     CorrectionBound b;
     for (int n = 0; n < 40; ++n) {
       auto path = clean;
-      b.apply(clean, path, noise2, jump, max_rms, shapes);
+      b.apply(clean, path, {.noise2 = noise2, .jump = jump, .measured_max_rms = max_rms, .shape = shapes});
     }
     auto x = clean;
     x[3 * 7 + 1] += 0.04f;  // joint 7 shifted 40 mm for one row
     auto path = clean;      // the network answers the clean hand
-    b.apply(x, path, noise2, jump, max_rms, shapes);
+    b.apply(x, path, {.noise2 = noise2, .jump = jump, .measured_max_rms = max_rms, .shape = shapes});
     return joint_dist(path, clean, 3 * 7);
   };
   const double limited = answer(0.01, hs::kMeasuredNoiseMaxRms), unlimited = answer(0.01, CorrectionBound::kUnlimitedRms);
@@ -489,7 +489,7 @@ TEST_CASE("an outlier that lasts three rows is taken back on its third, where it
         stretched[tip_j] = stretched[parent] = off_bones;
       }
       auto path = path_near(clean, 2, 0.0, 0.0);
-      b.apply(x, path, {}, {}, CorrectionBound::kUnlimitedRms, {}, {}, stretched);
+      b.apply(x, path, {.stretched = stretched});
       if (n == 62) return std::pair(frame_off(path, 0, clean, tip), b.radius(static_cast<int>(tip_j)));
     }
     return std::pair(1.0, 0.0);
@@ -521,8 +521,8 @@ TEST_CASE("on a whole hand's own row followed, the row before stays in the rough
       const auto x = frame_of(hand.rowwise() + Eigen::RowVector3d(dx, 0, 0));
       auto path = path_near(x, 2, 0.0, 0.0);
       const bool followed = n >= 20 && n <= 22;
-      b.apply(x, path, {}, {}, CorrectionBound::kUnlimitedRms, {}, followed ? std::span<const bool>(all) : std::span<const bool>(),
-              {}, hand_moved && n == 20);
+      b.apply(x, path, {.followed = followed ? std::span<const bool>(all) : std::span<const bool>(),
+                        .followed_hand = hand_moved && n == 20});
     }
     return b.radius(hs::idx(hs::Joint::IndexTip));
   };
@@ -610,7 +610,7 @@ TEST_CASE("with the noise measured at the input rate, a still hand's shake is ta
           path[f * kFs + i] = clean[i] + 0.5f * (x[i] - clean[i]) + static_cast<float>(shake);
         }
       const auto network = path;
-      if (measured) b.apply(x, path, noise2, jump);
+      if (measured) b.apply(x, path, {.noise2 = noise2, .jump = jump});
       else b.apply(x, path);
       if (n < kRows - 30) continue;
       const auto m = static_cast<size_t>(measured);
@@ -705,7 +705,7 @@ TEST_CASE("rows InputNoise calls jumps on a moving hand still teach the predicti
   for (int n = 0; n < kStill + kMoving; ++n) {
     auto [x, path] = hand.row(n);
     const auto network = path;
-    b.apply(x, path, noise2, n < kStill ? calm : jumps);
+    b.apply(x, path, {.noise2 = noise2, .jump = n < kStill ? calm : jumps});
     if (n < kStill + 60) continue;
     for (size_t f = 1; f < 4; ++f) {
       const auto ahead = hand.truth(n + static_cast<int>(f));

@@ -252,10 +252,11 @@ Eigen::Vector3d CorrectionBound::blended(size_t f, size_t j, const Eigen::Vector
   return g + warm * std::clamp(blend_num_[f] / blend_den_[f], 0.0, 1.0) * q;
 }
 
-void CorrectionBound::apply(std::span<const float> x, std::span<float> path, std::span<const double> noise2,
-                            std::span<const double> jump, double measured_max_rms,
-                            std::span<const double> shape, std::span<const bool> followed,
-                            std::span<const bool> stretched, bool followed_hand) noexcept {
+void CorrectionBound::apply(std::span<const float> x, std::span<float> path, const RowEvidence& row) noexcept {
+  const std::span<const double> noise2 = row.noise2, jump = row.jump, shape = row.shape;
+  const std::span<const bool> followed = row.followed, stretched = row.stretched;
+  const double measured_max_rms = row.measured_max_rms;
+  const bool followed_hand = row.followed_hand;
   const bool have_shape = shape.size() >= kJointCount;
   const bool have_stretched = stretched.size() >= kJointCount;
   const bool have_followed = followed.size() >= kJointCount;

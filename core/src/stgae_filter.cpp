@@ -461,17 +461,22 @@ class StgaeFilter final : public PoseFilter {
       // K >= 2 streams the measured radius already closes there (InputNoise's jump is 0),
       // and a stream's last frame is K rows back, not the re-fit's row. A joint whose bones are
       // off their length is no motion with its hand: an outlier, taken back on the rows it
-      // lasts (CorrectionBound::apply's `stretched`).
+      // lasts (CorrectionBound::RowEvidence::stretched).
       if (phases_ >= 2) {
-        bound.apply(frame, o.path, noise_.noise2(), noise_.jumps(), kMeasuredNoiseMaxRms, noise_.shapes());
+        bound.apply(frame, o.path, {.noise2 = noise_.noise2(), .jump = noise_.jumps(),
+                                    .measured_max_rms = kMeasuredNoiseMaxRms, .shape = noise_.shapes()});
       } else {
         std::array<bool, kJointCount> refit{};
         for (size_t j = 0; j < kJointCount; ++j)
           refit[j] = noise_.followed()[j] && noise_.shapes()[j] >= kMeasuredNoiseMinShape;
-        const bool slow = slow_rows();  // only there is the noise measured
-        bound.apply(frame, o.path, slow ? noise_.noise2() : std::span<const double>(),
-                    slow ? noise_.jumps() : std::span<const double>(), slow ? kMeasuredNoiseMaxRms : CorrectionBound::kUnlimitedRms,
-                    {}, refit, noise_.stretched(), noise_.hand_refit());
+        CorrectionBound::RowEvidence row{.followed = refit, .stretched = noise_.stretched(),
+                                         .followed_hand = noise_.hand_refit()};
+        if (slow_rows()) {  // only there is the noise measured
+          row.noise2 = noise_.noise2();
+          row.jump = noise_.jumps();
+          row.measured_max_rms = kMeasuredNoiseMaxRms;
+        }
+        bound.apply(frame, o.path, row);
       }
     }
     if (smoothed_) smoother_.apply(t, o.path);

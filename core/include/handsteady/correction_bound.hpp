@@ -132,38 +132,45 @@ class CorrectionBound {
   //   denoised frames' velocity (kPredictionBlendFrames), then held within reach of
   //   constant velocity (x's last step) from the denoised one.
   // Joints missing in x are not bound.
-  void apply(std::span<const float> x, std::span<float> path) noexcept { apply(x, path, {}, {}); }
-  // The same with the input's noise measured at the input rate (InputNoise): E|n|^2 per
-  // joint and this row's jump set the denoised frame's radius instead of this stream's
-  // second differences (empty spans: those), and bound the noise the correction's
-  // correlation reads for the shrink (kCorrectionShareFactor). On a row that is no jump
-  // the correction is first shrunk to the share of it that noise explains.
-  // Joints whose measured noise is over `measured_max_rms` (m) keep the stream's own
-  // radius and shrink (one stream on slow rows: kMeasuredNoiseMaxRms).
-  // With `shape` (InputNoise::shapes), such joints whose noise is Gaussian in shape
-  // (at least kMeasuredNoiseMinShape) take the measured radius all the same.
-  // Which rows teach the gain and the blend is the stream's own either way: any row
-  // whose second difference is no outlier of its frames' (InputNoise's jumps include a
-  // fast hand's rows, which the predictions must learn from most).
-  // With `followed` (per joint, InputNoise::followed: this row follows a tracker's re-fit,
-  // a jump that kept its bones and stayed), the joint's radius does not open to the row's
-  // second difference (the re-fit again) nor to its jump, and neither that nor the row
-  // before's enters the stream's roughness (the re-fit row's, or where the re-fit's own
-  // row is followed, the row before's): the answer follows the re-fit from its second
-  // row, or from its first.
-  // With `stretched` (per joint, InputNoise::stretched: a bone it ends is off its length),
-  // where the noise is not measured, the joint's correction is bound by the world's radius
-  // alone, which after a row that jumped against the hand opens to that jump: an outlier
-  // that lasts rows is still off its bones on its later rows, whose second differences are
-  // nothing; a re-fit that stays keeps them.
-  // With `followed_hand` (InputNoise::hand_refit: the joints followed are most of the hand,
-  // on their own row), the row before is no re-fit's and stays in the roughness, and this
-  // row's second difference enters it as any row's (the row after takes it back).
-  void apply(std::span<const float> x, std::span<float> path, std::span<const double> noise2,
-             std::span<const double> jump, double measured_max_rms = kUnlimitedRms,
-             std::span<const double> shape = {}, std::span<const bool> followed = {},
-             std::span<const bool> stretched = {}, bool followed_hand = false) noexcept;
+  void apply(std::span<const float> x, std::span<float> path) noexcept { apply(x, path, RowEvidence{}); }
   static constexpr double kUnlimitedRms = 1e9;
+  // The same with what the input's rows say beyond the frames (InputNoise); each empty
+  // span or default is "not known", and the row is bound as above.
+  struct RowEvidence {
+    // The input's noise measured at the input rate: E|n|^2 per joint and this row's jump
+    // (both or neither). They set the denoised frame's radius instead of this stream's
+    // second differences, and bound the noise the correction's correlation reads for the
+    // shrink (kCorrectionShareFactor). On a row that is no jump the correction is first
+    // shrunk to the share of it that noise explains. Which rows teach the gain and the
+    // blend is the stream's own either way: any row whose second difference is no outlier
+    // of its frames' (InputNoise's jumps include a fast hand's rows, which the predictions
+    // must learn from most).
+    std::span<const double> noise2 = {}, jump = {};
+    // Joints whose measured noise is over this RMS (m) keep the stream's own radius and
+    // shrink (one stream on slow rows: kMeasuredNoiseMaxRms) ...
+    double measured_max_rms = kUnlimitedRms;
+    // ... unless their noise is Gaussian in shape (InputNoise::shapes, at least
+    // kMeasuredNoiseMinShape): those take the measured radius all the same.
+    std::span<const double> shape = {};
+    // Per joint, InputNoise::followed: this row follows a tracker's re-fit (a jump that
+    // kept its bones and stayed). The joint's radius does not open to the row's second
+    // difference (the re-fit again) nor to its jump, and neither that nor the row
+    // before's enters the stream's roughness (the re-fit row's, or where the re-fit's own
+    // row is followed, the row before's): the answer follows the re-fit from its second
+    // row, or from its first.
+    std::span<const bool> followed = {};
+    // Per joint, InputNoise::stretched: a bone it ends is off its length. Where the noise
+    // is not measured, the joint's correction is bound by the world's radius alone, which
+    // after a row that jumped against the hand opens to that jump: an outlier that lasts
+    // rows is still off its bones on its later rows, whose second differences are
+    // nothing; a re-fit that stays keeps them.
+    std::span<const bool> stretched = {};
+    // InputNoise::hand_refit: the joints followed are most of the hand, on their own row.
+    // The row before is no re-fit's and stays in the roughness, and this row's second
+    // difference enters it as any row's (the row after takes it back).
+    bool followed_hand = false;
+  };
+  void apply(std::span<const float> x, std::span<float> path, const RowEvidence& row) noexcept;
   int frames() const noexcept { return frames_; }
   // The radius of joint j after the last apply (m); infinity when it was not bound.
   double radius(int j) const noexcept { return radius_[static_cast<size_t>(j)]; }

@@ -101,13 +101,13 @@ class InputNoise {
   // Per joint: whether the last row follows a re-fit, a jump that kept its bones and
   // stayed (while their quadratic runs through it; jump() is 0 on them), but not one back
   // to within half its length of where the joint was the row before (an outlier's end):
-  // the tracker's new answer, whose jump is no noise (CorrectionBound::apply's `followed`).
+  // the tracker's new answer, whose jump is no noise (CorrectionBound::RowEvidence::followed).
   // Also the re-fit's own row (a candidate, jump() > 0), where refit_share() is over
   // kInputNoiseRefitShare or the row's candidates are most of the hand (hand_refit()).
   std::span<const bool> followed() const noexcept { return followed_; }
   // Whether the last row's followed joints are most of the hand on their own row
   // (kInputNoiseHandRefitShare): a re-fit of the hand or its motion faster than the rows,
-  // whose row before is no re-fit's (CorrectionBound::apply's `followed_hand`).
+  // whose row before is no re-fit's (CorrectionBound::RowEvidence::followed_hand).
   bool hand_refit() const noexcept { return hand_refit_; }
   // The share of the hand's recent candidate re-fits that stayed a second row, 0 before
   // kInputNoiseRefitSeen of them.
