@@ -221,7 +221,7 @@ void setup_benchmark(CLI::App& app) {
                 "oneeuro-tuned-tremor) and each model with the canceller (LABEL-tremor; docs/FILTERS.md \"Tremor canceller\")");
   sub->add_flag("--gain", o->gain,
                 "Also score each model with its correction gain at every input rate (label LABEL-gain; the default "
-                "applies it to input faster than the model; docs/STGAE.md \"Correction gain\")");
+                "applies it to input faster than the model or 10-25 % slower; docs/STGAE.md \"Correction gain\")");
   sub->add_flag("--no-gain", o->no_gain,
                 "Also score each model without its correction gain (label LABEL-nogain)");
   sub->add_flag("--no-guard", o->no_guard,

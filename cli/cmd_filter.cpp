@@ -233,10 +233,11 @@ void setup_filter(CLI::App& app) {
   sub->add_flag("--gain", o->gain,
                 "stgae, dgn: keep only the share of the network's correction that the input's next rows confirm at "
                 "every input rate (docs/STGAE.md \"Correction gain\"; the default does so only where the input's "
-                "noise is measured at its own rate, input faster than the model; at one stream it gives back the "
-                "removal of 4-6 Hz tremor)");
+                "noise is measured at its own rate, input faster than the model or 10-25 % slower; at its rate it gives "
+                "back the removal of 4-6 Hz tremor)");
   sub->add_flag("--no-gain", o->no_gain,
-                "stgae, dgn: no correction gain at any rate (the default applies it to input faster than the model)");
+                "stgae, dgn: no correction gain at any rate (the default applies it to input faster than the model "
+                "or 10-25 % slower)");
   sub->add_flag("--no-guard", o->no_guard,
                 "stgae, dgn: without the oscillation guard, which scales the whole hand's correction back where "
                 "the answer's whole-hand motion accelerates more than the input's (docs/STGAE.md \"Oscillation guard\"; "

@@ -13,7 +13,8 @@ void MotionLagCap::reset() noexcept {
 }
 
 void MotionLagCap::observe(std::span<const float> x, const Pose& answer, std::span<const double> noise2,
-                           std::span<const double> jump, std::span<const bool> stretched) noexcept {
+                           std::span<const double> jump, std::span<const bool> stretched,
+                           double jump_share) noexcept {
   shift_.fill(0.0);
   Pose capped = answer;
   const bool ready = n_ >= static_cast<long>(kRows) && x.size() >= 3 * kJointCount && noise2.size() >= kJointCount &&
@@ -41,10 +42,10 @@ void MotionLagCap::observe(std::span<const float> x, const Pose& answer, std::sp
       // it along the motion: lag) or an outlier taken back. An outlier of one joint mostly
       // stretches a bone it ends, the hand's motion keeps them all; one that keeps them (a
       // shift that turns its bone) shows in the correction, as large as the outlier and in its
-      // direction: kept whole where the correction along the step is over kMotionCapJumpShare
-      // of the step, or mostly across it.
+      // direction: kept whole where the correction along the step is over `jump_share` of
+      // the step, or mostly across it.
       if (jump[ju] > 0.0 &&
-          ((bones && stretched[ju]) || std::abs(along) > kMotionCapJumpShare * sn ||
+          ((bones && stretched[ju]) || std::abs(along) > jump_share * sn ||
            (correction - along * u).norm() > std::abs(along)))
         continue;
       const Eigen::Vector3d d = -u * (along - std::copysign(cap, along));

@@ -75,24 +75,32 @@ class StgaeFilter final : public PoseFilter {
       return true;
     }
     const bool gain = gaining() && latest_ >= 0;
-    const bool cap = bounded_ && phases_ >= 2;
+    // Where the gain comes back on (one stream's rows measured slower than the model again),
+    // its rows before are not the last ones: it forgets them, keeps its gains.
+    if (gain && !gained_last_row_) gain_.restart();
+    gained_last_row_ = gain;
+    const bool cap = bounded_ && measured();
     const bool guard = guarded_ && latest_ >= 0;
     if (!gain && !cap && !guard) return true;
     answer(t, ans_);  // once, for all three
     if (gain) {
-      // The noise is measured at the input rate only where rows come between a stream's
-      // frames (K >= 2): one stream's rows are its frames (the trust region's `measured`).
+      // The noise is measured at the input rate where rows come between a stream's frames
+      // (K >= 2) or one stream's rows are slower than the model (the trust region's
+      // `measured`); elsewhere one stream's rows are its frames.
       gain_.observe(t, std::span<const float>(cur_.data(), cur_.size()),
                     std::span<const double>(ans_.data(), static_cast<size_t>(ans_.size())),
-                    phases_ >= 2 ? noise_.noise2() : std::span<const double>{});
+                    measured() ? noise_.noise2() : std::span<const double>{});
       // From here ans_ is the answer as it goes out, each stage's shift added for the next.
       for (int j = 0; j < n_; ++j)
         for (int c = 0; c < 3; ++c) ans_(j, c) += gain_.shift(j, c);
     }
     if (cap) {
       // The lag cap reads the answer with the gain's shift and the noise measured at the
-      // input rate, which one stream's rows do not give.
-      lag_cap_.observe(std::span<const float>(cur_.data(), cur_.size()), ans_, noise_.noise2(), noise_.jumps(), noise_.stretched());
+      // input rate, which one stream's rows give only where they are slower than the model
+      // (slow_rows). There a fast hand's two-row step is long enough to pass an outlier as
+      // lag on a jump row unless the share is smaller (docs/STGAE.md "The lag cap and the gain on slow rows").
+      lag_cap_.observe(std::span<const float>(cur_.data(), cur_.size()), ans_, noise_.noise2(), noise_.jumps(), noise_.stretched(),
+                       phases_ >= 2 ? kMotionCapJumpShare : kMotionCapJumpShareSlowRows);
     }
     if (guard) {
       // The guard reads it with the gain's and the cap's shifts (the cap's is zero where it does not act).
@@ -110,7 +118,7 @@ class StgaeFilter final : public PoseFilter {
   // stream it takes the network's removal of a slow tremor back as motion). The streams
   // only fall to one through restart_grid, which restarts the gain.
   bool gaining() const noexcept {
-    return bounded_ && gain_mode_ != false && (gain_mode_ == true || phases_ >= 2);
+    return bounded_ && gain_mode_ != false && (gain_mode_ == true || measured());
   }
 
   // One accepted row into the streams; false when it has no joint.
@@ -285,10 +293,15 @@ class StgaeFilter final : public PoseFilter {
   // by it and the network's lag behind a fast move went through for rows after it. Not at
   // the model's rate, where FPHA's `paper` and 50 ms rows lost, nor on split intervals
   // (20 Hz), where the Leap low-noise cells did (docs/STGAE.md "One stream on slow rows").
+  // The lag cap and the correction gain act there too, on that noise (measured()).
   static constexpr double kSlowRowsPeriods = 1.1;
   bool slow_rows() const noexcept {
     return phases_ == 1 && locked_ && split_ == 1 && lock_spacing_ > kSlowRowsPeriods * period_;
   }
+  // Whether InputNoise measures the noise on rows apart from the streams' frames: K >= 2
+  // streams, or one stream on slow rows. The correction gain (auto) and the lag cap act
+  // only there: they need that noise (docs/STGAE.md "The lag cap and the gain on slow rows").
+  bool measured() const noexcept { return phases_ >= 2 || slow_rows(); }
 
   // How the adapter frames input of one sampling interval.
   struct RateMode {
@@ -514,11 +527,12 @@ class StgaeFilter final : public PoseFilter {
   std::array<PhaseOutput, kStgaeMaxPhases> out_;
   std::array<CorrectionBound, kStgaeMaxPhases> bounds_;  // one per stream: its frames are a period apart
   bool bounded_ = true;
-  std::optional<bool> gain_mode_;  // the correction gain: unset = auto (K >= 2), true = at every rate, false = off
+  std::optional<bool> gain_mode_;  // the correction gain: unset = auto (measured()), true = at every rate, false = off
   bool smoothed_ = false;
   PredictionSmoother smoother_;  // one for all streams (smoothed_): their frames in time order
   CorrectionGain gain_;          // how much of the answer's correction to keep (gaining())
-  MotionLagCap lag_cap_;         // the correction along a fast joint's motion, held (bounded_, K >= 2)
+  bool gained_last_row_ = false;  // whether gain_ observed the last row with the hand
+  MotionLagCap lag_cap_;         // the correction along a fast joint's motion, held (bounded_, measured())
   bool guarded_ = true;
   OscillationGuard guard_;       // the whole hand shaken no more than the input (guarded_)
   InputNoise noise_;             // the input's noise at the input rate, for the trust region

@@ -108,8 +108,8 @@ struct StgaeParams {
   bool bounded = true; // false: the network's own answer, without the trust region
   // With bounded: keep only the share of the correction the input's next rows confirm
   // (correction_gain.hpp). Unset (auto): where the noise is measured at the input rate (K >=
-  // 2 streams); true: at every rate (at one stream it gives up the removal of a slow
-  // tremor); false: never.
+  // 2 streams, or one stream on rows slower than the model); true: at every rate (at one
+  // stream at the model's rate it gives up the removal of a slow tremor); false: never.
   std::optional<bool> gain;
   bool smooth = false;  // with bounded: predicted displacements smoothed over time (prediction_smoothing.hpp;
                         // opt-in: ~40 % less jitter in the predictions for a few % more error)

@@ -7,7 +7,7 @@
 // kMotionCapSpeedZ times what the input's noise explains of such a step, the correction's
 // component along that step is held to kMotionCapFactor times the noise's RMS; across it,
 // and on slower joints, nothing changes. Needs the noise measured at the input rate
-// (InputNoise: input faster than the model). On a row InputNoise calls a jump the cap acts
+// (InputNoise: input faster than the model, or one stream on rows slower than it). On a row InputNoise calls a jump the cap acts
 // only where the joint's bones kept their lengths and the correction looks like lag (mostly
 // along the step, under kMotionCapJumpShare of it); an outlier taken back keeps its
 // correction. Per hand, no allocation, noexcept.
@@ -30,6 +30,14 @@ inline constexpr double kMotionCapSpeedZ = 8.0;
 // the step is an outlier's (docs/STGAE.md "The lag cap", "On rows called jumps": 1 against
 // 0.5 and 2 on the tuning split at 90 Hz; 0.5 before the bones were asked).
 inline constexpr double kMotionCapJumpShare = 1.0;
+// One stream on rows slower than the model (StgaeFilter's slow rows: 22.4-27.3 Hz under a 30 Hz
+// model, HoloLens 2's 23.5 Hz) has the noise measured on its rows too, and the cap serves it
+// there (docs/STGAE.md "The lag cap on slow rows"); but a fast hand's step over two such
+// rows is 50-100 mm, under which a 10-50 mm outlier along the motion would read as lag. A
+// quarter of the step (about half a row's interval of lag, 21 ms at 23.5 Hz) kept most of
+// the cap's gain on the tuning split at 23.5 Hz (0.5: as much, the outliers put back less
+// far; 0.1: less).
+inline constexpr double kMotionCapJumpShareSlowRows = 0.25;
 
 class MotionLagCap {
  public:
@@ -37,9 +45,12 @@ class MotionLagCap {
   // The input row x (3 * kJointCount, joint-major xyz, NaN = missing), the answer at its
   // time without this cap (NaN rows = none), and the input's noise (InputNoise: E|n|^2 per
   // joint, this row's jumps, the joints whose bones it stretched). Sets the shift for
-  // answers made from this row.
+  // answers made from this row. On a jump row, a correction along the step over `jump_share`
+  // of it is an outlier's (kMotionCapJumpShare; one stream on slow rows:
+  // kMotionCapJumpShareSlowRows).
   void observe(std::span<const float> x, const Pose& answer, std::span<const double> noise2,
-               std::span<const double> jump, std::span<const bool> stretched) noexcept;
+               std::span<const double> jump, std::span<const bool> stretched,
+               double jump_share = kMotionCapJumpShare) noexcept;
   // Clears the shift (a row without the hand); the answers seen stay.
   void clear() noexcept { shift_.fill(0.0); }
   // What to add to coordinate c of joint j of answers made from the last row (m).
