@@ -34,15 +34,15 @@ constexpr double kRate = 90.0;
 hs::HandSeries moving_hand(double seconds, double rate = kRate) { return hs::test::moving_hand(seconds, rate, 7); }
 
 
-// 8-12 Hz tremor of 1.5 mm (the hand) and 0.75 mm (the fingers) on `truth`: a noise the
-// shipped model over-corrects.
-hs::HandSeries tremor_8_12(const hs::HandSeries& truth) {
+// 8-12 Hz tremor of `hand_m` (the hand) and half that (the fingers) on `truth`: at 1.5 mm
+// a noise the shipped model over-corrects.
+hs::HandSeries tremor_8_12(const hs::HandSeries& truth, double hand_m = 0.0015) {
   hs::CorruptionConfig cfg;
   cfg.kind = hs::CorruptionKind::Tremor;
   cfg.tremor.freq_min_hz = 8.0;
   cfg.tremor.freq_max_hz = 12.0;
-  cfg.tremor.hand_amplitude_m = 0.0015;
-  cfg.tremor.finger_amplitude_m = 0.00075;
+  cfg.tremor.hand_amplitude_m = hand_m;
+  cfg.tremor.finger_amplitude_m = hand_m / 2.0;
   return hs::corrupt_series(truth, cfg, 4);
 }
 
@@ -288,13 +288,7 @@ TEST_CASE("correction gain through the adapter: one stream on rows slower than t
     names.push_back(f.filename().string());
   }
   const auto truth = hs::resample_series(hs::hand_series(hs::concatenate_takes(takes, names), hs::Hand::Right), 23.5);
-  hs::CorruptionConfig cfg;
-  cfg.kind = hs::CorruptionKind::Tremor;
-  cfg.tremor.freq_min_hz = 8.0;
-  cfg.tremor.freq_max_hz = 12.0;
-  cfg.tremor.hand_amplitude_m = 0.0005;
-  cfg.tremor.finger_amplitude_m = 0.00025;
-  const auto noisy = hs::corrupt_series(truth, cfg, 4);
+  const auto noisy = tremor_8_12(truth, 0.0005);
   auto run = [&](std::optional<bool> gain) {
     auto f = hs::make_stgae_filter(model, 0.0, 0, true, gain);
     return hs::mpjpe_mm(truth.pos, hs::filter_series(*f, noisy, 0.0).pos);
