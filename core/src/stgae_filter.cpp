@@ -75,11 +75,13 @@ class StgaeFilter final : public PoseFilter {
       return true;
     }
     const bool gain = gaining() && latest_ >= 0;
-    // Where the gain comes back on (one stream's rows measured slower than the model again),
-    // its rows before are not the last ones: it forgets them, keeps its gains.
+    const bool cap = bounded_ && measured();
+    // Where the gain comes back on (one stream's rows read slower than the model again), the
+    // rows it saw before are not the last ones, whose future it checks: it forgets them and
+    // keeps its gains, as over a tracking gap. The cap keeps its last answers (starting it
+    // over there was worse at 27 Hz: docs/STGAE.md "The lag cap and the gain on slow rows").
     if (gain && !gained_last_row_) gain_.restart();
     gained_last_row_ = gain;
-    const bool cap = bounded_ && measured();
     const bool guard = guarded_ && latest_ >= 0;
     if (!gain && !cap && !guard) return true;
     answer(t, ans_);  // once, for all three
@@ -98,9 +100,10 @@ class StgaeFilter final : public PoseFilter {
       // The lag cap reads the answer with the gain's shift and the noise measured at the
       // input rate, which one stream's rows give only where they are slower than the model
       // (slow_rows). There a fast hand's two-row step is long enough to pass an outlier as
-      // lag on a jump row unless the share is smaller (docs/STGAE.md "The lag cap and the gain on slow rows").
-      lag_cap_.observe(std::span<const float>(cur_.data(), cur_.size()), ans_, noise_.noise2(), noise_.jumps(), noise_.stretched(),
-                       phases_ >= 2 ? kMotionCapJumpShare : kMotionCapJumpShareSlowRows);
+      // lag on a jump row unless the share is smaller (docs/STGAE.md "The lag cap and the
+      // gain on slow rows").
+      lag_cap_.observe(std::span<const float>(cur_.data(), cur_.size()), ans_, noise_.noise2(), noise_.jumps(),
+                       noise_.stretched(), phases_ >= 2 ? kMotionCapJumpShare : kMotionCapJumpShareSlowRows);
     }
     if (guard) {
       // The guard reads it with the gain's and the cap's shifts (the cap's is zero where it does not act).
@@ -116,7 +119,8 @@ class StgaeFilter final : public PoseFilter {
   // Whether the correction gain acts now (with the trust region): where it is on, and in
   // auto only where the noise is measured at the input rate (without that floor, at one
   // stream it takes the network's removal of a slow tremor back as motion). The streams
-  // only fall to one through restart_grid, which restarts the gain.
+  // only fall to one through restart_grid, which restarts the gain; one stream's slow rows
+  // come and go with the rate's median, and where they come back push() restarts it.
   bool gaining() const noexcept {
     return bounded_ && gain_mode_ != false && (gain_mode_ == true || measured());
   }

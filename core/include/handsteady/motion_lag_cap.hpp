@@ -7,10 +7,10 @@
 // kMotionCapSpeedZ times what the input's noise explains of such a step, the correction's
 // component along that step is held to kMotionCapFactor times the noise's RMS; across it,
 // and on slower joints, nothing changes. Needs the noise measured at the input rate
-// (InputNoise: input faster than the model, or one stream on rows slower than it). On a row InputNoise calls a jump the cap acts
-// only where the joint's bones kept their lengths and the correction looks like lag (mostly
-// along the step, under kMotionCapJumpShare of it); an outlier taken back keeps its
-// correction. Per hand, no allocation, noexcept.
+// (InputNoise: input faster than the model, or one stream on rows slower than it). On a
+// row InputNoise calls a jump the cap acts only where the joint's bones kept their lengths
+// and the correction looks like lag (mostly along the step, under a share of it); an
+// outlier taken back keeps its correction. Per hand, no allocation, noexcept.
 #include "handsteady/skeleton.hpp"
 #include "handsteady/track.hpp"
 
@@ -30,13 +30,13 @@ inline constexpr double kMotionCapSpeedZ = 8.0;
 // the step is an outlier's (docs/STGAE.md "The lag cap", "On rows called jumps": 1 against
 // 0.5 and 2 on the tuning split at 90 Hz; 0.5 before the bones were asked).
 inline constexpr double kMotionCapJumpShare = 1.0;
-// One stream on rows slower than the model (StgaeFilter's slow rows: 22.4-27.3 Hz under a 30 Hz
-// model, HoloLens 2's 23.5 Hz) has the noise measured on its rows too, and the cap serves it
-// there (docs/STGAE.md "The lag cap on slow rows"); but a fast hand's step over two such
-// rows is 50-100 mm, under which a 10-50 mm outlier along the motion would read as lag. A
-// quarter of the step (about half a row's interval of lag, 21 ms at 23.5 Hz) kept most of
-// the cap's gain on the tuning split at 23.5 Hz (0.5: as much, the outliers put back less
-// far; 0.1: less).
+// One stream on rows slower than the model (StgaeFilter's slow rows: 22.4-27.3 Hz under a
+// 30 Hz model, HoloLens 2's 23.5 Hz) has the noise measured on its rows too, and the cap
+// serves it there (docs/STGAE.md "The lag cap and the gain on slow rows"); but a fast
+// hand's step over two such rows is 50-100 mm, under which a 10-50 mm outlier along the
+// motion would read as lag. A quarter of the step (about half a row's interval of lag, 21
+// ms at 23.5 Hz) kept most of the cap's gain on the tuning split at 23.5 Hz (0.5: as much,
+// the outliers put back less far; 0.1: less).
 inline constexpr double kMotionCapJumpShareSlowRows = 0.25;
 
 class MotionLagCap {

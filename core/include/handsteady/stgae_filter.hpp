@@ -26,18 +26,19 @@ namespace hs {
 // for more than kModelResetGapS resets the streams. `bounded`: each stream's output is held
 // within the trust region of its input (correction_bound.hpp), and where the noise is
 // measured at the input rate (K >= 2, or one stream on rows slower than the model) the
-// answer's correction along a fast joint's own
-// motion is held (motion_lag_cap.hpp, fading out over one model period ahead); false = the
-// network's raw answer (for comparison). `gain` (with bounded): the answers keep only the share of their
-// correction that the input's next rows confirm, less the share the measured noise explains
+// answer's correction along a fast joint's own motion is held (motion_lag_cap.hpp, fading
+// out over one model period ahead); false = the network's raw answer (for comparison).
+// `gain` (with bounded): the answers keep only the share of their correction that the
+// input's next rows confirm, less the share the measured noise explains
 // (correction_gain.hpp, fading out over one model period ahead); unset (auto) where the
 // noise is measured at the input rate (K >= 2 streams, or one stream on rows slower than
 // the model), true at every rate, false never. At one stream at the model's rate it would
-// take the network's removal of a slow tremor back (docs/STGAE.md "Correction gain"). `smooth` (with bounded): the predicted frames' displacements are
-// smoothed over time (prediction_smoothing.hpp); false = each frame's own. `guard` (with
-// bounded): the whole hand's correction is scaled back where the answer's whole-hand
-// motion accelerates more than the input's (oscillation_guard.hpp; fading out over one
-// model period ahead); false = without. Throws
+// take the network's removal of a slow tremor back (docs/STGAE.md "Correction gain").
+// `smooth` (with bounded): the predicted frames' displacements are smoothed over time
+// (prediction_smoothing.hpp); false = each frame's own. `guard` (with bounded): the whole
+// hand's correction is scaled back where the answer's whole-hand motion accelerates more
+// than the input's (oscillation_guard.hpp; fading out over one model period ahead); false
+// = without. Throws
 // std::invalid_argument for a centred model, a negative horizon or phases outside 0..kStgaeMaxPhases.
 inline constexpr int kStgaeMaxPhases = 4;
 std::unique_ptr<PoseFilter> make_stgae_filter(std::shared_ptr<const StgaeModel> model, double horizon_s,
