@@ -199,7 +199,7 @@ SwipeLag swipes_at(double rate) {
         ++s.n;
       }
   }
-  REQUIRE(s.n > 50);
+  REQUIRE(s.n > 100);
   const double k = 1e3 / static_cast<double>(s.n);
   s.along *= k;
   s.abs_along *= k;
