@@ -274,12 +274,7 @@ TEST_CASE("correction gain through the adapter: one stream on rows slower than t
   // benchmark does, at 23.5 Hz with 0.5 mm of 8-12 Hz tremor: off 0.66 mm, auto 0.60, raw
   // 0.33 (2026-12-06; the network's own floor is above this noise, the gain takes part back).
   const auto model = hs::test::shipped_model();
-  std::vector<std::filesystem::path> files;
-  for (const auto& e : std::filesystem::directory_iterator(hs::test::shared_data() / "leap" / "guinevere")) {
-    const std::string name = e.path().filename().string();
-    if (name.rfind("s03_", 0) == 0 && name.ends_with("-1.csv")) files.push_back(e.path());
-  }
-  std::sort(files.begin(), files.end());
+  const auto files = hs::test::leap_tuning_takes();
   REQUIRE(files.size() >= 10);
   std::vector<hs::Track> takes;
   std::vector<std::string> names;

@@ -172,13 +172,7 @@ struct SwipeLag {
 };
 SwipeLag swipes_at(double rate) {
   const auto model = hs::test::shipped_model();
-  std::vector<std::filesystem::path> takes;
-  for (const auto& e : std::filesystem::directory_iterator(hs::test::shared_data() / "leap" / "guinevere")) {
-    const std::string name = e.path().filename().string();
-    if (name.rfind("s03_", 0) == 0 && name.find("swipe") != std::string::npos && name.ends_with("-1.csv"))
-      takes.push_back(e.path());
-  }
-  std::sort(takes.begin(), takes.end());
+  const auto takes = hs::test::leap_tuning_takes("swipe");
   REQUIRE(takes.size() >= 2);
   SwipeLag s;
   for (const auto& take : takes) {

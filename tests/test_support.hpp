@@ -6,6 +6,7 @@
 #include "handsteady/synth.hpp"
 #include "handsteady/track.hpp"
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -35,6 +36,19 @@ inline std::shared_ptr<const StgaeModel> shipped_model() { return load_hsm(model
 inline std::filesystem::path shared_data() {
   std::filesystem::path p(HS_SHARED_DATA);
   return std::filesystem::is_directory(p) ? p : std::filesystem::path{};
+}
+
+// The Leap tuning subject's first takes (../shared/data/leap/guinevere/s03_*-1.csv; not a
+// benchmark test set), sorted, those whose name contains `part` (all when empty).
+inline std::vector<std::filesystem::path> leap_tuning_takes(const std::string& part = "") {
+  std::vector<std::filesystem::path> takes;
+  for (const auto& e : std::filesystem::directory_iterator(shared_data() / "leap" / "guinevere")) {
+    const std::string name = e.path().filename().string();
+    if (name.starts_with("s03_") && name.ends_with("-1.csv") && name.find(part) != std::string::npos)
+      takes.push_back(e.path());
+  }
+  std::sort(takes.begin(), takes.end());
+  return takes;
 }
 
 // A whole file's text ("" when it cannot be read).
