@@ -170,11 +170,12 @@ TEST_CASE("correction gain: correlated jitter's removal is kept where the measur
   CHECK(ew.gained < 0.5 * ew.answer);
 }
 
-TEST_CASE("correction gain: a correction no larger than the network's own error gets no floor from the measured noise") {
+TEST_CASE("correction gain: a rough correction no larger than the network's own roughness gets no floor from the measured noise") {
   // Nearly clean input (0.1 mm white noise per axis, measured): a denoiser whose correction
-  // is an error of its own of that size, under kGainOwnErrorM, was kept whole by the floor
-  // (the measured noise explains all of a correction no larger than it); now the check
-  // alone judges it and takes it back to the input. An exact denoiser of the same noise is
+  // is a white error of its own of that size (its fast part under kGainOwnRoughnessM) was
+  // kept whole by the floor (the measured noise explains all of a correction no larger than
+  // it); now the check alone judges that fast part and takes it back (the low band, a
+  // small share of white error, keeps its floor). An exact denoiser of the same noise is
   // still kept: the check sees white noise removed.
   const auto truth = moving_hand(8.0);
   constexpr double kSd = 0.0001;
@@ -191,7 +192,7 @@ TEST_CASE("correction gain: a correction no larger than the network's own error 
                                           << " " << ee.answer << " " << ee.gained << "; gains " << wrong.gain_fast() << " / "
                                           << wrong.gain_low());
   CHECK(ew.answer > 1.3 * ew.input);
-  CHECK(ew.gained < 1.1 * ew.input);
+  CHECK(ew.gained - ew.input < 0.3 * (ew.answer - ew.input));  // 0.174 mm, input 0.159, answer 0.225
   CHECK(ee.gained < 0.3 * ee.input);
 }
 
@@ -276,14 +277,13 @@ TEST_CASE("correction gain through the adapter: the shipped model on 8-12 Hz tre
   CHECK(with_gain - raw < 0.1 * (alone - raw));
 }
 
-TEST_CASE("correction gain through the adapter: on 0.5 mm tremor at 90 Hz the network's own error is not kept as noise removed") {
+TEST_CASE("correction gain through the adapter: on 0.5 mm tremor at 90 Hz the network's own roughness is not kept as noise removed") {
   HS_SKIP_WITHOUT_SHARED_DATA();
   // Low tremor (0.5 mm, 8-12 Hz) on the Leap tuning takes at 90 Hz, three streams, the gain
-  // auto: the network removes little of it and adds an error of its own; the measured noise,
-  // of that error's size, kept it whole (the floor) until bands under kGainOwnErrorM got
-  // none. Raw 0.332 mm, the adapter 0.390 before, 0.360 since (2026-12-06). On the smooth
-  // synthetic hand, where the network's error is smaller still, it is 0.333 against 0.330
-  // before (raw 0.328): the check keeps a little more of that error than the floor did.
+  // auto: the network removes little of it and adds roughness of its own; the measured
+  // noise, of that roughness's size, kept it whole (the floor) until a fast part under
+  // kGainOwnRoughnessM got none. Raw 0.332 mm, the adapter 0.390 before, 0.373 since
+  // (2026-12-06).
   const auto model = hs::test::shipped_model();
   const auto truth = leap_tuning_series(90.0);
   const auto noisy = tremor_8_12(truth, 0.0005);
@@ -291,7 +291,7 @@ TEST_CASE("correction gain through the adapter: on 0.5 mm tremor at 90 Hz the ne
   const double raw = hs::mpjpe_mm(truth.pos, noisy.pos);
   const double out = hs::mpjpe_mm(truth.pos, hs::filter_series(*f, noisy, 0.0).pos);
   MESSAGE("90 Hz: raw " << raw << " mm, the adapter " << out << " mm");
-  CHECK(out < 1.13 * raw);
+  CHECK(out < 1.15 * raw);
 }
 
 TEST_CASE("correction gain through the adapter: auto is the gain where the noise is measured (K >= 2), none at one stream at the model's rate") {
@@ -329,8 +329,8 @@ TEST_CASE("correction gain through the adapter: one stream on rows slower than t
   // gains there, with that noise as the floor. The Leap tuning subject's first takes (fast
   // free-air motion the network reshapes; not a benchmark test set), concatenated as the
   // benchmark does, at 23.5 Hz with 0.5 mm of 8-12 Hz tremor: off 0.66 mm, auto 0.58, raw
-  // 0.33 (0.60 before bands under kGainOwnErrorM got no floor; the network's own floor is
-  // above this noise, the gain takes part back).
+  // 0.33 (0.60 before a fast part under kGainOwnRoughnessM got no floor; the network's own
+  // floor is above this noise, the gain takes part back).
   const auto model = hs::test::shipped_model();
   const auto truth = leap_tuning_series(23.5);
   const auto noisy = tremor_8_12(truth, 0.0005);

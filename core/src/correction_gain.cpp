@@ -25,10 +25,10 @@ void CorrectionGain::restart() noexcept {
 }
 
 namespace {
-// The most of a band of mean square mean2 the measured noise may keep: none where the band
-// is no larger than the network's own error, 0.95 of it at 1.2 times that size.
+// The most of a fast part of mean square mean2 the measured noise may keep: none where it is
+// no larger than the network's own roughness, 0.95 of it at 1.2 times that size.
 double vouched(double mean2) noexcept {
-  constexpr double e2 = kGainOwnErrorM * kGainOwnErrorM;
+  constexpr double e2 = kGainOwnRoughnessM * kGainOwnRoughnessM;
   if (!(mean2 > e2)) return 0.0;
   double r = e2 / mean2;
   r *= r;
@@ -144,15 +144,15 @@ void CorrectionGain::observe(double t, std::span<const float> x, std::span<const
       }
     }
   }
-  // What the gains take back of each band, less the share of it the measured noise explains.
+  // What the gains take back of each band, less the share of it the measured noise explains
+  // (none of a fast part no larger than the network's own roughness: vouched()).
   const bool measured = noise2.size() >= kJointCount;
   for (size_t o = 0; o < kFs; o += 3) {
     const size_t j = o / 3;
     const bool floor = measured && noise2[j] >= 0.0;
     const double kept_fast =
         floor ? std::min(vouched(joint_fast2_[j]), explained_share(joint_fast2_[j], kGainNoiseShare * noise2[j])) : 0.0;
-    const double kept_low =
-        floor ? std::min(vouched(joint_low2_[j]), explained_share(joint_low2_[j], kGainNoiseShare * noise2[j])) : 0.0;
+    const double kept_low = floor ? explained_share(joint_low2_[j], kGainNoiseShare * noise2[j]) : 0.0;
     for (size_t i = o; i < o + 3; ++i)
       shift_[i] = std::isfinite(row.c[i]) ? -(1.0 - kept_fast) * (1.0 - gain_fast_) * (row.c[i] - row.low[i]) -
                                                 (1.0 - kept_low) * (1.0 - gain_low_) * row.low[i]
