@@ -68,6 +68,8 @@ void CorrectionGain::observe(double t, std::span<const float> x, std::span<const
   const double clip = c2_rows_ >= 1.0 ? std::max(kGainClip * std::sqrt(c2_), kGainClipFloorM)
                                       : std::numeric_limits<double>::infinity();
   const double a = n_ > 0 ? 1.0 - std::exp(-(t - last_t_) / kGainBandS) : 1.0;
+  // The fast part is the answers' roughness only where the low band spans more than a row.
+  const bool rough_rows = n_ > 0 && t - last_t_ < kGainBandS;
   double c2_sum = 0.0;
   int c2_n = 0;
   for (size_t o = 0; o < kFs; o += 3) {
@@ -150,8 +152,8 @@ void CorrectionGain::observe(double t, std::span<const float> x, std::span<const
   for (size_t o = 0; o < kFs; o += 3) {
     const size_t j = o / 3;
     const bool floor = measured && noise2[j] >= 0.0;
-    const double kept_fast =
-        floor ? std::min(vouched(joint_fast2_[j]), explained_share(joint_fast2_[j], kGainNoiseShare * noise2[j])) : 0.0;
+    const double explained_fast = floor ? explained_share(joint_fast2_[j], kGainNoiseShare * noise2[j]) : 0.0;
+    const double kept_fast = rough_rows ? std::min(vouched(joint_fast2_[j]), explained_fast) : explained_fast;
     const double kept_low = floor ? explained_share(joint_low2_[j], kGainNoiseShare * noise2[j]) : 0.0;
     for (size_t i = o; i < o + 3; ++i)
       shift_[i] = std::isfinite(row.c[i]) ? -(1.0 - kept_fast) * (1.0 - gain_fast_) * (row.c[i] - row.low[i]) -

@@ -35,7 +35,9 @@
 // clean input the measured noise and that roughness are of a size, and the floor kept it
 // whole. Such a fast part gets no floor (the gains alone judge it), fading in to nearly all
 // of it (0.95) at 1.2 times that size. The low band keeps its floor: the correction's slow
-// part is where a slow tremor's removal lives, which the check cannot see.
+// part is where a slow tremor's removal lives, which the check cannot see. So does the fast
+// part of rows further apart than kGainBandS (one stream at 22-27 Hz), which carries that
+// removal too.
 // docs/STGAE.md "Correction gain".
 #include "handsteady/skeleton.hpp"
 
