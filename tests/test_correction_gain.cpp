@@ -194,6 +194,16 @@ TEST_CASE("correction gain: a rough correction no larger than the network's own 
   CHECK(ew.answer > 1.3 * ew.input);
   CHECK(ew.gained - ew.input < 0.3 * (ew.answer - ew.input));  // 0.174 mm, input 0.159, answer 0.225
   CHECK(ee.gained < 0.3 * ee.input);
+  // Rows further apart than the low band's time constant (one stream at 23.5 Hz): a row's
+  // fast part carries a slow tremor's removal there too, and the floor keeps it as before.
+  const auto slow_truth = moving_hand(20.0, 23.5);
+  std::mt19937_64 slow_noise_rng(11), slow_own_rng(5);
+  CorrectionGain slow;
+  const Errors es = feed(slow, slow_truth, [&](size_t, const hs::Pose& t) { return hs::test::jittered(t, slow_noise_rng, noise); },
+                         [&](size_t, const hs::Pose&, const hs::Pose& x) { return hs::test::jittered(x, slow_own_rng, own); },
+                         noise2);
+  INFO("at 23.5 Hz (input answer gained) " << es.input << " " << es.answer << " " << es.gained);
+  CHECK(es.gained > 0.95 * es.answer);
 }
 
 TEST_CASE("correction gain: an outlier taken back stays whole, nothing changes before the rows show the gain") {
