@@ -180,14 +180,18 @@ TEST_CASE("correction gain: a rough correction no larger than the network's own 
   const auto truth = moving_hand(8.0);
   constexpr double kSd = 0.0001;
   const std::vector<double> noise2(kJointCount, 3.0 * kSd * kSd);
-  std::mt19937_64 noise_rng(11), own_rng(5);
   std::normal_distribution<double> noise(0.0, kSd), own(0.0, kSd);
-  const auto noisy = [&](size_t, const hs::Pose& t) { return hs::test::jittered(t, noise_rng, noise); };
+  // The measured noise on `t`, and a denoiser that adds its own white error (the same seeds each call).
+  const auto adds_own = [&](CorrectionGain& g, const hs::HandSeries& t) {
+    std::mt19937_64 noise_rng(11), own_rng(5);
+    return feed(g, t, [&](size_t, const hs::Pose& p) { return hs::test::jittered(p, noise_rng, noise); },
+                [&](size_t, const hs::Pose&, const hs::Pose& x) { return hs::test::jittered(x, own_rng, own); }, noise2);
+  };
   CorrectionGain wrong, exact;
-  const Errors ew = feed(wrong, truth, noisy, [&](size_t, const hs::Pose&, const hs::Pose& x) {
-    return hs::test::jittered(x, own_rng, own);
-  }, noise2);
-  const Errors ee = feed(exact, truth, noisy, [](size_t, const hs::Pose& t, const hs::Pose&) { return t; }, noise2);
+  const Errors ew = adds_own(wrong, truth);
+  std::mt19937_64 noise_rng(12);
+  const Errors ee = feed(exact, truth, [&](size_t, const hs::Pose& t) { return hs::test::jittered(t, noise_rng, noise); },
+                         [](size_t, const hs::Pose& t, const hs::Pose&) { return t; }, noise2);
   INFO("own error (input answer gained) " << ew.input << " " << ew.answer << " " << ew.gained << "; exact " << ee.input
                                           << " " << ee.answer << " " << ee.gained << "; gains " << wrong.gain_fast() << " / "
                                           << wrong.gain_low());
@@ -196,12 +200,8 @@ TEST_CASE("correction gain: a rough correction no larger than the network's own 
   CHECK(ee.gained < 0.3 * ee.input);
   // Rows further apart than the low band's time constant (one stream at 23.5 Hz): a row's
   // fast part carries a slow tremor's removal there too, and the floor keeps it as before.
-  const auto slow_truth = moving_hand(20.0, 23.5);
-  std::mt19937_64 slow_noise_rng(11), slow_own_rng(5);
   CorrectionGain slow;
-  const Errors es = feed(slow, slow_truth, [&](size_t, const hs::Pose& t) { return hs::test::jittered(t, slow_noise_rng, noise); },
-                         [&](size_t, const hs::Pose&, const hs::Pose& x) { return hs::test::jittered(x, slow_own_rng, own); },
-                         noise2);
+  const Errors es = adds_own(slow, moving_hand(20.0, 23.5));
   INFO("at 23.5 Hz (input answer gained) " << es.input << " " << es.answer << " " << es.gained);
   CHECK(es.gained > 0.95 * es.answer);
 }

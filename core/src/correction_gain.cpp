@@ -67,9 +67,10 @@ void CorrectionGain::observe(double t, std::span<const float> x, std::span<const
   // scale is winsorised, so that outliers do not set it.
   const double clip = c2_rows_ >= 1.0 ? std::max(kGainClip * std::sqrt(c2_), kGainClipFloorM)
                                       : std::numeric_limits<double>::infinity();
-  const double a = n_ > 0 ? 1.0 - std::exp(-(t - last_t_) / kGainBandS) : 1.0;
+  const double dt = n_ > 0 ? t - last_t_ : std::numeric_limits<double>::infinity();
+  const double a = 1.0 - std::exp(-dt / kGainBandS);
   // The fast part is the answers' roughness only where the low band spans more than a row.
-  const bool rough_rows = n_ > 0 && t - last_t_ < kGainBandS;
+  const bool rough_rows = dt < kGainBandS;
   double c2_sum = 0.0;
   int c2_n = 0;
   for (size_t o = 0; o < kFs; o += 3) {
