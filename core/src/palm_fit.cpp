@@ -63,6 +63,7 @@ void PalmFit::reset() noexcept {
   resid2_ = resid_rows_ = 0.0;
   median_.fill(0.0);
   median_n_.fill(0);
+  peak_.fill(0.0);
   off_run_.fill(0);
   unfit_run_ = 0;
   last_scale_ = 0.0;
@@ -115,8 +116,9 @@ void PalmFit::apply(Pose& pose) noexcept {
   }
   if (n_use < kPalmMinPoints) return;
   // Joints that do not move with the palm in this tracker (their median residual far
-  // above the median joint's; a median, so a joint that often jumps is not taken for one)
-  // are neither fitted nor answered: they pass through.
+  // above the median joint's; a median, so a joint that often jumps is not taken for one;
+  // or far above it lately, so a joint that rests a while is not taken for rigid) are
+  // neither fitted nor answered: they pass through.
   std::array<double, kP> sorted{};
   int n_r = 0;
   for (size_t i = 0; i < kP; ++i)
@@ -127,8 +129,11 @@ void PalmFit::apply(Pose& pose) noexcept {
     typical = sorted[static_cast<size_t>(n_r / 2)];
   }
   const double rigid_limit = std::hypot(kPalmRigidFactor * typical, kPalmRigidFloorM);
-  std::array<bool, kP> rigid{};
-  for (size_t i = 0; i < kP; ++i) rigid[i] = known[i] && !(median_n_[i] >= kPalmMinRows && median_[i] > rigid_limit);
+  std::array<bool, kP> rigid{}, loose{};
+  for (size_t i = 0; i < kP; ++i) {
+    loose[i] = peak_[i] > kPalmLooseFactor * rigid_limit;
+    rigid[i] = known[i] && !(median_n_[i] >= kPalmMinRows && (median_[i] > rigid_limit || loose[i]));
+  }
   n_use = 0;
   for (size_t i = 0; i < kP; ++i) {
     use[i] = use[i] && rigid[i];
@@ -226,6 +231,7 @@ void PalmFit::apply(Pose& pose) noexcept {
     median_[i] += kPalmMedianStep * std::max(median_[i], kPalmMedianFloorM) * (e > median_[i] ? 1.0 : -1.0);
     median_[i] = std::max(median_[i], 0.0);
     median_n_[i] = std::min(median_n_[i] + 1, 1 << 20);
+    peak_[i] = std::max(median_[i], peak_[i] * (1.0 - 1.0 / kPalmLooseRows));
     if (use[i]) rs += std::min(e * e, cut * cut);
     if (use[i] || !rigid[i]) {
       off_run_[i] = 0;
@@ -242,10 +248,12 @@ void PalmFit::apply(Pose& pose) noexcept {
   if (rows_ <= kPalmMinRows) return;
   // Answer: every rigid palm joint the template knows, where the fit puts it. A joint that
   // is not rigid here keeps its own position, unless it is far off its usual place (an
-  // outlier against its own median residual): there the fit's is nearer.
+  // outlier against its own median residual, or a loose joint's peak: one that rested
+  // has a median of nothing): there the fit's is nearer.
   for (size_t i = 0; i < kP; ++i) {
     const V3 p = fit.apply(a[i]);
-    if (rigid[i] || (known[i] && have[i] && (p - b[i]).norm() > std::max(cut, kPalmOutlier * median_[i])))
+    const double usual = loose[i] ? peak_[i] : median_[i];
+    if (rigid[i] || (known[i] && have[i] && (p - b[i]).norm() > std::max(cut, kPalmOutlier * usual)))
       pose.row(kPalmJoints[i]) = p.transpose();
   }
 }

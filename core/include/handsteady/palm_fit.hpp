@@ -23,7 +23,10 @@
 // residual stays above the other joints' does not move with the palm in this tracker
 // (ManipNet's THUMB_METACARPAL sits on the moving thumb; Leap Motion's WRIST bends under a
 // millimetre against the knuckles): it passes through, unless it is far off
-// its own usual place, where the fit answers it as an outlier. Nothing
+// its own usual place, where the fit answers it as an outlier. One seen far off the palm
+// lately (kPalmLooseRows) stays free while it rests: its median falls to nothing then
+// (ManipNet's thumb rests for seconds), and taken for rigid its next move was answered
+// where the palm put it, up to 16 mm off on clean input. Nothing
 // changes until kPalmMinRows rows have taught the template, or where fewer than
 // kPalmMinPoints palm joints are present. Other joints are never touched.
 // noexcept, no allocation. make_filter puts it in front of the network methods by default
@@ -58,6 +61,12 @@ inline constexpr int kPalmRelearnRows = 4;          // an outlier this many rows
 inline constexpr int kPalmRestartRows = 10;         // rows running without a fit start a new template
 inline constexpr double kPalmRigidFactor = 2.0;     // a joint whose median residual is this many times
 inline constexpr double kPalmRigidFloorM = 0.0005;  // the median joint's (plus this, in quadrature) is not rigid
+// A joint whose median residual has been over kPalmLooseFactor times that limit within about
+// kPalmLooseRows rows (its peak decays by 1 / kPalmLooseRows a row) is loose: not rigid even
+// while it rests. Twice, so that slow per-joint noise (80 ms correlated jitter lifts one
+// joint's median over the others' for a while) leaves no rigid joint loose.
+inline constexpr double kPalmLooseFactor = 2.0;
+inline constexpr double kPalmLooseRows = 1000.0;
 
 class PalmFit {
  public:
@@ -87,6 +96,7 @@ class PalmFit {
   double resid2_ = 0.0, resid_rows_ = 0.0;  // running mean of an inlier's squared residual (m^2)
   std::array<double, kP> median_{};             // each joint's running median residual (m)
   std::array<int, kP> median_n_{};              // rows it has followed
+  std::array<double, kP> peak_{};               // its largest median lately (decays over kPalmLooseRows)
   std::array<int, kP> off_run_{};               // rows running the joint was an outlier
   int unfit_run_ = 0;                           // rows running with no fit
   double last_scale_ = 0.0;                     // the last fit's scale (0: none yet)
