@@ -56,6 +56,17 @@ std::array<bool, P> off_joints(const std::array<V3, P>& a, const std::array<V3, 
 
 }  // namespace
 
+// The median over the known joints that have a median of their value v (0: none).
+double PalmFit::median_joint(const std::array<double, kP>& v, const std::array<bool, kP>& known) const noexcept {
+  std::array<double, kP> sorted{};
+  int n = 0;
+  for (size_t i = 0; i < kP; ++i)
+    if (known[i] && median_n_[i] > 0) sorted[static_cast<size_t>(n++)] = v[i];
+  if (n == 0) return 0.0;
+  std::nth_element(sorted.begin(), sorted.begin() + n / 2, sorted.begin() + n);
+  return sorted[static_cast<size_t>(n / 2)];
+}
+
 void PalmFit::reset() noexcept {
   for (auto& p : tmpl_) p = {0.0, 0.0, 0.0};
   count_.fill(0.0);
@@ -117,21 +128,13 @@ void PalmFit::apply(Pose& pose) noexcept {
   if (n_use < kPalmMinPoints) return;
   // Joints that do not move with the palm in this tracker (their median residual far
   // above the median joint's; a median, so a joint that often jumps is not taken for one;
-  // or far above it lately, so a joint that rests a while is not taken for rigid) are
-  // neither fitted nor answered: they pass through.
-  std::array<double, kP> sorted{};
-  int n_r = 0;
-  for (size_t i = 0; i < kP; ++i)
-    if (known[i] && median_n_[i] > 0) sorted[static_cast<size_t>(n_r++)] = median_[i];
-  double typical = 0.0;
-  if (n_r > 0) {
-    std::nth_element(sorted.begin(), sorted.begin() + n_r / 2, sorted.begin() + n_r);
-    typical = sorted[static_cast<size_t>(n_r / 2)];
-  }
-  const double rigid_limit = std::hypot(kPalmRigidFactor * typical, kPalmRigidFloorM);
+  // or their peak median far above the median joint's peak, so a joint that rests a while
+  // is not taken for rigid) are neither fitted nor answered: they pass through.
+  const double rigid_limit = std::hypot(kPalmRigidFactor * median_joint(median_, known), kPalmRigidFloorM);
+  const double loose_limit = std::hypot(kPalmRigidFactor * median_joint(peak_, known), kPalmRigidFloorM);
   std::array<bool, kP> rigid{}, loose{};
   for (size_t i = 0; i < kP; ++i) {
-    loose[i] = peak_[i] > kPalmLooseFactor * rigid_limit;
+    loose[i] = peak_[i] > loose_limit;
     rigid[i] = known[i] && !(median_n_[i] >= kPalmMinRows && (median_[i] > rigid_limit || loose[i]));
   }
   n_use = 0;

@@ -24,9 +24,10 @@
 // (ManipNet's THUMB_METACARPAL sits on the moving thumb; Leap Motion's WRIST bends under a
 // millimetre against the knuckles): it passes through, unless it is far off
 // its own usual place, where the fit answers it as an outlier. One seen far off the palm
-// lately (kPalmLooseRows) stays free while it rests: its median falls to nothing then
-// (ManipNet's thumb rests for seconds), and taken for rigid its next move was answered
-// where the palm put it, up to 16 mm off on clean input. Nothing
+// lately (its peak median against the other joints' peaks, over kPalmLooseRows) stays free
+// while it rests: its median falls to nothing then (ManipNet's thumb rests for seconds),
+// and taken for rigid its next move was answered where the palm put it, up to 16 mm off on
+// clean input. Nothing
 // changes until kPalmMinRows rows have taught the template, or where fewer than
 // kPalmMinPoints palm joints are present. Other joints are never touched.
 // noexcept, no allocation. make_filter puts it in front of the network methods by default
@@ -61,11 +62,10 @@ inline constexpr int kPalmRelearnRows = 4;          // an outlier this many rows
 inline constexpr int kPalmRestartRows = 10;         // rows running without a fit start a new template
 inline constexpr double kPalmRigidFactor = 2.0;     // a joint whose median residual is this many times
 inline constexpr double kPalmRigidFloorM = 0.0005;  // the median joint's (plus this, in quadrature) is not rigid
-// A joint whose median residual has been over kPalmLooseFactor times that limit within about
-// kPalmLooseRows rows (its peak decays by 1 / kPalmLooseRows a row) is loose: not rigid even
-// while it rests. Twice, so that slow per-joint noise (80 ms correlated jitter lifts one
-// joint's median over the others' for a while) leaves no rigid joint loose.
-inline constexpr double kPalmLooseFactor = 2.0;
+// Each joint's peak median residual decays by 1 / kPalmLooseRows a row. A joint whose peak is
+// over the same limit taken from the joints' peaks (the median joint's) is loose: not rigid
+// even while it rests. Peaks against peaks, so that noise which lifts every joint's median in
+// turn (80 ms correlated jitter, 4 mm quantisation) leaves no rigid joint loose.
 inline constexpr double kPalmLooseRows = 1000.0;
 
 class PalmFit {
@@ -90,6 +90,8 @@ class PalmFit {
   void learn(size_t i, const Eigen::Vector3d& local) noexcept;  // one row more of template point i
   // A new template from this row alone (the present joints of b).
   void start(const std::array<Eigen::Vector3d, kP>& b, const std::array<bool, kP>& have) noexcept;
+  // The median joint's v (its median residual, or its peak) over the known joints that have one.
+  double median_joint(const std::array<double, kP>& v, const std::array<bool, kP>& known) const noexcept;
   std::array<std::array<double, 3>, kP> tmpl_{};  // the template, in its own frame
   std::array<double, kP> count_{};                // rows each template point has learnt from
   int rows_ = 0;
