@@ -58,7 +58,7 @@ void CorrectionGain::solve() noexcept {
 }
 
 void CorrectionGain::observe(double t, std::span<const float> x, std::span<const double> answer,
-                             std::span<const double> noise2) noexcept {
+                             std::span<const double> noise2, std::span<const double> white2) noexcept {
   if (x.size() < kFs || answer.size() < kFs || !std::isfinite(t)) return;
   Row& row = rows_[static_cast<size_t>(n_ % kRing)];
   row.t = t;
@@ -148,14 +148,19 @@ void CorrectionGain::observe(double t, std::span<const float> x, std::span<const
     }
   }
   // What the gains take back of each band, less the share of it the measured noise explains
-  // (none of a fast part no larger than the network's own roughness: vouched()).
+  // (none of a fast part no larger than the network's own roughness: vouched(); of the low
+  // band, the white part of the noise only at the share its removal keeps through the band).
   const bool measured = noise2.size() >= kJointCount;
+  const bool split = measured && white2.size() >= kJointCount;
+  const double white_low = a / (2.0 - a);
   for (size_t o = 0; o < kFs; o += 3) {
     const size_t j = o / 3;
     const bool floor = measured && noise2[j] >= 0.0;
     const double explained_fast = floor ? explained_share(joint_fast2_[j], kGainNoiseShare * noise2[j]) : 0.0;
     const double kept_fast = rough_rows ? std::min(vouched(joint_fast2_[j]), explained_fast) : explained_fast;
-    const double kept_low = floor ? explained_share(joint_low2_[j], kGainNoiseShare * noise2[j]) : 0.0;
+    const double white = floor && split ? std::clamp(white2[j], 0.0, noise2[j]) : 0.0;
+    const double low_noise2 = floor ? noise2[j] - white + white_low * white : 0.0;
+    const double kept_low = floor ? explained_share(joint_low2_[j], kGainNoiseShare * low_noise2) : 0.0;
     for (size_t i = o; i < o + 3; ++i)
       shift_[i] = std::isfinite(row.c[i]) ? -(1.0 - kept_fast) * (1.0 - gain_fast_) * (row.c[i] - row.low[i]) -
                                                 (1.0 - kept_low) * (1.0 - gain_low_) * row.low[i]

@@ -37,7 +37,12 @@
 // of it (0.95) at 1.2 times that size. The low band keeps its floor: the correction's slow
 // part is where a slow tremor's removal lives, which the check cannot see. So does the fast
 // part of rows further apart than kGainBandS (one stream at 22-27 Hz), which carries that
-// removal too.
+// removal too. But white noise's removal is mostly fast: through the low band's one-pole
+// mean (a = 1 - exp(-dt / kGainBandS) a row) it keeps a / (2 - a) of its power, 0.18 at 90
+// Hz. So the low band's floor counts the share of the noise that the smoothness measure sees
+// (white, `white2`) at that share and the rest (what only the bones see: slow noise) whole;
+// counted whole, the noise of a clean recording (its own jitter, a resampling's kinks) kept
+// the network's slow offsets.
 // docs/STGAE.md "Correction gain".
 #include "handsteady/skeleton.hpp"
 
@@ -71,9 +76,10 @@ class CorrectionGain {
   // One input row at time t (increasing): the input x and the denoiser's answer for it
   // (3 * kJointCount each, joint-major xyz, NaN = missing). Updates the gains from the row
   // three back, and the shift for answers made from this row. noise2: the input's noise
-  // per joint (m^2, kJointCount; empty where it is not measured at the input rate).
+  // per joint (m^2, kJointCount; empty where it is not measured at the input rate); white2:
+  // the part of it the smoothness measure sees (InputNoise::smooth2; empty: none of it).
   void observe(double t, std::span<const float> x, std::span<const double> answer,
-               std::span<const double> noise2 = {}) noexcept;
+               std::span<const double> noise2 = {}, std::span<const double> white2 = {}) noexcept;
   // What to add to coordinate c of joint j's answer at the last row: minus the part of its
   // correction the gains do not keep (0 where the joint was missing).
   double shift(int j, int c) const noexcept { return shift_[static_cast<size_t>(3 * j + c)]; }

@@ -92,6 +92,10 @@ class InputNoise {
   double jump(int j) const noexcept { return jump_[static_cast<size_t>(j)]; }
   // Both for every joint (what CorrectionBound::apply takes).
   std::span<const double> noise2() const noexcept { return noise2_; }
+  // E|n|^2 per joint from the smoothness measure alone (m^2): white noise in full, noise
+  // that the next rows predict (correlated jitter, tremor) hardly. noise2() less this is
+  // what only the bones saw: slow noise (CorrectionGain's low band).
+  std::span<const double> smooth2() const noexcept { return smooth2_; }
   std::span<const double> jumps() const noexcept { return jump_; }
   // Per joint: whether a bone it ends (to its parent or a child) changed length in the last
   // row by more than kInputNoiseStretch RMS of its spread, the length learnt (false without
