@@ -828,7 +828,11 @@ TEST_CASE("PoseFilter adapter: at 47 Hz the shipped model's three streams on spl
   MESSAGE("47 Hz, 1 mm white noise: mean joint error " << err_split / n * 1e3 << " mm (three streams, split), "
                                                       << err_two / n * 1e3 << " mm (two streams), raw " << err_raw / n * 1e3
                                                       << " mm");
-  CHECK(err_split < 0.97 * err_two);  // 0.945 when written; the same filter would be 1
+  // 0.945 when written (1.408 against 1.491 mm); since the correction gain's low band counts
+  // white noise at the share its removal keeps through the band (docs/STGAE.md "White noise's
+  // removal is mostly fast") 0.983 (1.406 against 1.430): the gain now takes back most of the
+  // slow error two streams made. The same filter would be 1.
+  CHECK(err_split < 0.99 * err_two);
 }
 
 TEST_CASE("PoseFilter adapter: a tracker that halves its rate (96 to 48 Hz) keeps the three streams' history") {
