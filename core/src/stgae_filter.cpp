@@ -89,10 +89,11 @@ class StgaeFilter final : public PoseFilter {
       // The noise is measured at the input rate where rows come between a stream's frames
       // (K >= 2) or one stream's rows are slower than the model (the trust region's
       // `measured`); elsewhere one stream's rows are its frames.
+      const bool noise = measured();
       gain_.observe(t, std::span<const float>(cur_.data(), cur_.size()),
                     std::span<const double>(ans_.data(), static_cast<size_t>(ans_.size())),
-                    measured() ? noise_.noise2() : std::span<const double>{},
-                    measured() ? noise_.smooth2() : std::span<const double>{});
+                    noise ? noise_.noise2() : std::span<const double>{},
+                    noise ? noise_.smooth2() : std::span<const double>{});
       // From here ans_ is the answer as it goes out, each stage's shift added for the next.
       for (int j = 0; j < n_; ++j)
         for (int c = 0; c < 3; ++c) ans_(j, c) += gain_.shift(j, c);
