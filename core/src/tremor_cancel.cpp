@@ -47,6 +47,9 @@ void TremorCancel::reset() noexcept {
     for (auto& c : bin) c = {0.0, 0.0};
   freq_hz_ = 0.0;
   phase_ = 0.0;
+  lock_hz_ = 0.0;
+  lock_theta_ = 0.0;
+  lock_have_ = false;
   r00_ = r01_ = r11_ = 0.0;
   rows_fit_ = 0.0;
   for (auto& c : b_)
@@ -87,6 +90,31 @@ double TremorCancel::peak_hz(double& prominence) const noexcept {
   return hz(best) + kTremorStepHz * shift;
 }
 
+// The hand channel's fitted oscillation on axis a is w_a0 sin(phase) + w_a1 cos(phase) =
+// A_a sin(phase + theta): theta turns at the tremor's frequency less the oscillator's. The
+// axes share theta up to a sign (one direction of shaking), so it is read mod pi from the
+// sum of the squared phasors. Its turning rate is integrated into lock_hz_ as far as `gate`
+// (the hand channel's gates) trusts the fit.
+void TremorCancel::lock(double dt, double gate, const std::array<std::array<double, 2>, 3>& w) noexcept {
+  double re = 0.0, im = 0.0;
+  for (const auto& wa : w) {
+    re += wa[0] * wa[0] - wa[1] * wa[1];
+    im += 2.0 * wa[0] * wa[1];
+  }
+  if (!std::isfinite(re) || !std::isfinite(im) || (re == 0.0 && im == 0.0)) return;  // no phase to read
+  const double theta = 0.5 * std::atan2(im, re);
+  if (lock_have_ && dt > 0.0) {
+    const double turn = 0.5 * std::remainder(2.0 * (theta - lock_theta_), kTwoPi);  // mod pi
+    const double k = std::min(1.0, dt / kTremorLockS) * std::clamp(gate, 0.0, 1.0);
+    lock_hz_ = std::clamp(lock_hz_ + k * turn / (kTwoPi * dt), -kTremorLockMaxHz, kTremorLockMaxHz);
+    // The oscillator stays in the band searched (and under the input's Nyquist share).
+    const double hi = std::min(kTremorMaxHz, dt_mean_ > 0.0 ? kTremorNyquistShare / dt_mean_ : kTremorMaxHz);
+    lock_hz_ = std::clamp(freq_hz_ + lock_hz_, kTremorMinHz, std::max(kTremorMinHz, hi)) - freq_hz_;
+  }
+  lock_theta_ = theta;
+  lock_have_ = true;
+}
+
 void TremorCancel::apply(double t, Pose& pose) noexcept {
   const double dt = rows_ > 0 ? t - last_t_ : 0.0;
   if (rows_ > 0 && !(dt > 0.0)) return;  // not after the last row: nothing to learn from
@@ -125,7 +153,7 @@ void TremorCancel::apply(double t, Pose& pose) noexcept {
   // The oscillator and its regressors' filter run on every row from the first, so that
   // the filter has settled when a peak is found and the weights learnt stay in phase with
   // the tremor over rows too sparse to learn from.
-  phase_ = std::remainder(phase_ + kTwoPi * (freq_hz_ > 0.0 ? freq_hz_ : kTremorStartHz) * dt, kTwoPi);  // dt 0 on the first row
+  phase_ = std::remainder(phase_ + kTwoPi * (freq_hz_ > 0.0 ? freq_hz_ + lock_hz_ : kTremorStartHz) * dt, kTwoPi);  // dt 0 on the first row
   const std::array<double, 2> x{std::sin(phase_), std::cos(phase_)};
   for (size_t i = 0; i < 2; ++i) {
     if (rows_ == 1) reg_hp_[i].start(x[i]);
@@ -194,6 +222,7 @@ void TremorCancel::apply(double t, Pose& pose) noexcept {
     gate_[cs] = r2 > 0.0 ? std::clamp((1.0 - e2 / r2) / kTremorGateSpan, 0.0, 1.0) : 0.0;
   };
   learn(0, hand);
+  lock(dt, prom_gate * gate_[0], {weights(b_[0][0]), weights(b_[0][1]), weights(b_[0][2])});
   for (int j = 0; j < kJointCount; ++j) {
     const size_t cs = static_cast<size_t>(1 + j);
     if (use[static_cast<size_t>(j)]) learn(1 + j, r[static_cast<size_t>(j)] - hand);
