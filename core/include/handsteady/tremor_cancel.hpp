@@ -22,7 +22,7 @@
 // (kTremorMemoryS), so that phase and amplitude follow a wandering tremor.
 //
 // Frequency lock: the spectrum's peak, averaged over kTremorSpectrumS, trails a tremor whose
-// frequency wanders (Parkinsonian tremor drifts by tenths of a hertz within seconds), and
+// frequency wanders (the corruption's by up to 1 Hz over 2-5 s), and
 // then the tremor's phase slips against the oscillator's and the short fit chases it. The
 // hand channel's fitted phase turns at the difference of the two frequencies; that turning,
 // integrated with time constant kTremorLockS (only while the gates let the hand's channel
