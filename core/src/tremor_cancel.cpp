@@ -153,7 +153,8 @@ void TremorCancel::apply(double t, Pose& pose) noexcept {
   // The oscillator and its regressors' filter run on every row from the first, so that
   // the filter has settled when a peak is found and the weights learnt stay in phase with
   // the tremor over rows too sparse to learn from.
-  phase_ = std::remainder(phase_ + kTwoPi * (freq_hz_ > 0.0 ? freq_hz_ + lock_hz_ : kTremorStartHz) * dt, kTwoPi);  // dt 0 on the first row
+  const double osc_hz = frequency_hz();
+  phase_ = std::remainder(phase_ + kTwoPi * (osc_hz > 0.0 ? osc_hz : kTremorStartHz) * dt, kTwoPi);  // dt 0 on the first row
   const std::array<double, 2> x{std::sin(phase_), std::cos(phase_)};
   for (size_t i = 0; i < 2; ++i) {
     if (rows_ == 1) reg_hp_[i].start(x[i]);
