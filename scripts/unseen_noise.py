@@ -1,0 +1,187 @@
+#!/usr/bin/env python3
+"""Kinds of input the benchmark's grid does not hold, on FPHA subject 5 (the benchmark's
+validation subject): depth-heavy jitter, slow drift, noise that comes in bursts, a runtime
+that repeats its last row, hands scaled about the wrist, the left hand, and other input
+rates. Each is scored for raw, One Euro (the layer's beta 50), Kalman and the shipped
+Multi-STGAE with `handsteady eval`; markdown table on stdout and in OUT/unseen.md.
+
+  scripts/unseen_noise.py build/release/cli/handsteady ../shared/data out/unseen
+
+Seeded (Python's Mersenne Twister and `handsteady corrupt --seed 1`): the same command
+writes the same table. About 3 min on 2 cores. docs/BENCHMARK.md "Input the grid does not
+hold". Nothing here is used to choose anything: it is a check of generality, run after.
+"""
+import json
+import math
+import os
+import random
+import subprocess
+import sys
+
+
+def read_track(path):
+    meta, header, rows = [], None, []
+    with open(path) as f:
+        for line in f:
+            line = line.rstrip("\n")
+            if line.startswith("#"):
+                meta.append(line)
+            elif header is None:
+                header = line.split(",")
+            elif line:
+                p = line.split(",")
+                rows.append((p[0], p[1], [None if v in ("", "nan", "NaN") else float(v) for v in p[2:]]))
+    return meta, header, rows
+
+
+def write_track(path, meta, header, rows, note):
+    with open(path, "w") as f:
+        for m in meta:
+            f.write(m + "\n")
+        f.write(f"# unseen_noise: {note}\n")
+        f.write(",".join(header) + "\n")
+        for t, hand, v in rows:
+            f.write(",".join([t, hand] + ["" if x is None else f"{x:.7f}" for x in v]) + "\n")
+
+
+def jitter(rows, sd_mm, ar, seed):
+    """AR(1) jitter per coordinate, stationary SD sd_mm = (x, y, z) in mm."""
+    rng = random.Random(seed)
+    n = len(rows[0][2])
+    state = [0.0] * n
+    k = math.sqrt(1.0 - ar * ar)
+    out = []
+    for t, hand, v in rows:
+        state = [ar * s + k * rng.gauss(0.0, sd_mm[i % 3] * 1e-3) for i, s in enumerate(state)]
+        out.append((t, hand, [None if x is None else x + state[i] for i, x in enumerate(v)]))
+    return out
+
+
+def bursts(rows, calm_mm, burst_mm, share, mean_rows, seed):
+    """White jitter whose SD switches between calm and bursts (a two-state Markov chain)."""
+    rng = random.Random(seed)
+    on, out = False, []
+    for t, hand, v in rows:
+        if on and rng.random() < 1.0 / mean_rows:
+            on = False
+        elif not on and rng.random() < share / (mean_rows * (1.0 - share)):
+            on = True
+        sd = (burst_mm if on else calm_mm) * 1e-3
+        out.append((t, hand, [None if x is None else x + rng.gauss(0.0, sd) for x in v]))
+    return out
+
+
+def stale(rows, share, seed):
+    """A runtime that now and then answers its previous row again (new time, old joints)."""
+    rng = random.Random(seed)
+    out, prev = [], None
+    for t, hand, v in rows:
+        if prev is not None and all(x is not None for x in prev) and all(x is not None for x in v) and rng.random() < share:
+            out.append((t, hand, list(prev)))
+        else:
+            out.append((t, hand, v))
+            prev = v
+    return out
+
+
+def scaled(rows, header, k):
+    """Every joint moved k times as far from the wrist: a smaller or larger hand."""
+    w = header.index("wrist_x") - 2
+    out = []
+    for t, hand, v in rows:
+        if v[w] is None:
+            out.append((t, hand, v))
+            continue
+        c = v[w:w + 3]
+        out.append((t, hand, [None if x is None else c[i % 3] + k * (x - c[i % 3]) for i, x in enumerate(v)]))
+    return out
+
+
+def mirrored(rows, header):
+    """The left hand: x negated (OpenXR's +X right), hand label swapped."""
+    xs = [i for i, h in enumerate(header[2:]) if h.endswith("_x")]
+    out = []
+    for t, hand, v in rows:
+        u = list(v)
+        for i in xs:
+            if u[i] is not None:
+                u[i] = -u[i]
+        out.append((t, "left" if hand == "right" else "right", u))
+    return out
+
+
+def main():
+    if len(sys.argv) != 4:
+        sys.exit(__doc__)
+    exe, data, out = os.path.abspath(sys.argv[1]), sys.argv[2], sys.argv[3]
+    subject = os.path.join(data, "fpha", "Subject_5")
+    if not os.path.isdir(subject):
+        sys.exit(f"unseen_noise: {subject} not found (FPHA subject 5 of ../shared/data)")
+    os.makedirs(out, exist_ok=True)
+
+    def hs(*args):
+        subprocess.run([exe, *args], check=True, stdout=subprocess.DEVNULL)
+
+    def path(name):
+        return os.path.join(out, name + ".csv")
+
+    hs("import", "--format", "fpha", "--in", subject, "--out", path("clean"))
+    meta, header, clean = read_track(path("clean"))
+    hs("corrupt", "--in", path("clean"), "--out", path("tracker"), "--preset", "tracker", "--jitter-mm", "1.5", "--seed", "1")
+    _, _, tracker = read_track(path("tracker"))
+
+    # (name, what, input file, truth file)
+    cases = [("tracker", "the `tracker` preset at 1.5 mm, 30 Hz (a cell of the grid, for reference)", "tracker", "clean")]
+
+    def add(name, what, rows, truth="clean", m=meta):
+        write_track(path(name), m, header, rows, what)
+        cases.append((name, what, name, truth))
+
+    add("depth", "AR(1) 0.3 jitter 0.5 / 0.5 / 3 mm in x / y / z (depth-heavy)", jitter(clean, (0.5, 0.5, 3.0), 0.3, 1))
+    add("isotropic", "the same power on every axis: 1.78 mm, AR(1) 0.3", jitter(clean, (1.78, 1.78, 1.78), 0.3, 1))
+    add("drift", "slow drift: 2 mm, AR(1) 0.95 (a 0.6 s time constant)", jitter(clean, (2.0, 2.0, 2.0), 0.95, 2))
+    add("bursts", "0.3 mm white with 4 mm bursts a fifth of the time (15 rows long on average)",
+        bursts(clean, 0.3, 4.0, 0.2, 15, 3))
+    add("stale", "the `tracker` input with 30 % of rows the previous row again", stale(tracker, 0.3, 4))
+    for k in (0.7, 1.3):
+        truth = f"clean_x{k}"
+        write_track(path(truth), meta, header, scaled(clean, header, k), f"scaled x{k} about the wrist")
+        hs("corrupt", "--in", path(truth), "--out", path(f"scaled_x{k}"), "--preset", "tracker", "--jitter-mm", "1.5", "--seed", "1")
+        cases.append((f"scaled_x{k}", f"a hand {k} × the size (about the wrist), `tracker` 1.5 mm", f"scaled_x{k}", truth))
+    write_track(path("clean_left"), meta, header, mirrored(clean, header), "mirrored to the left hand")
+    add("left", "the `tracker` input mirrored to the left hand", mirrored(tracker, header), truth="clean_left")
+    for rate in (45, 72, 120):
+        truth = f"clean_{rate}hz"
+        hs("resample", "--in", path("clean"), "--out", path(truth), "--rate", str(rate))
+        hs("corrupt", "--in", path(truth), "--out", path(f"rate_{rate}hz"), "--preset", "tracker", "--jitter-mm", "1.5", "--seed", "1")
+        cases.append((f"rate_{rate}hz", f"resampled to {rate} Hz, `tracker` 1.5 mm", f"rate_{rate}hz", truth))
+
+    methods = [("raw", ["--method", "raw"]), ("One Euro (beta 50)", ["--method", "oneeuro", "--beta", "50"]),
+               ("Kalman", ["--method", "kalman"]), ("Multi-STGAE", ["--method", "stgae"])]
+    lines = ["| input | " + " | ".join(m for m, _ in methods) + " |", "|---|" + "---:|" * len(methods)]
+    results = []
+    for name, what, inp, truth in cases:
+        cells = []
+        for label, args in methods:
+            est = os.path.join(out, "estimate.csv")
+            hs("filter", "--in", path(inp), "--out", est, *args)
+            r = subprocess.run([exe, "eval", "--truth", path(truth), "--in", est, "--json"], check=True,
+                               capture_output=True, text=True)
+            d = json.loads(r.stdout)
+            ratio = d["jitter_mm"] / d["truth_jitter_mm"] if d["truth_jitter_mm"] > 0 else float("nan")
+            cells.append(f"{d['mpjpe_mm']:.3f} / {ratio:.2f} / {d['lag_ms']:.1f}")
+            results.append({"input": name, "method": label, "mpjpe_mm": d["mpjpe_mm"], "jitter_ratio": ratio,
+                            "lag_ms": d["lag_ms"]})
+        lines.append(f"| {what} | " + " | ".join(cells) + " |")
+    os.remove(os.path.join(out, "estimate.csv"))
+    text = ("MPJPE mm / jitter ÷ the truth's / lag ms, FPHA subject 5 (`scripts/unseen_noise.py`)\n\n" +
+            "\n".join(lines) + "\n")
+    with open(os.path.join(out, "unseen.md"), "w") as f:
+        f.write(text)
+    with open(os.path.join(out, "unseen.json"), "w") as f:
+        json.dump(results, f, indent=1)
+    print(text, end="")
+
+
+if __name__ == "__main__":
+    main()
