@@ -6,6 +6,10 @@ rates. Each is scored for raw, One Euro (the layer's beta 50), Kalman and the sh
 Multi-STGAE with `handsteady eval`; markdown table on stdout and in OUT/unseen.md.
 
   scripts/unseen_noise.py build/release/cli/handsteady ../shared/data out/unseen
+  scripts/unseen_noise.py --rows 3000 --check BIN DATA OUT   # CTest's quick run
+
+--rows N keeps the subject's first N rows; --check exits 1 unless Multi-STGAE's error is
+below raw's on every input (77, CTest's skip, when the data is absent).
 
 Seeded (Python's Mersenne Twister and `handsteady corrupt --seed 1`): the same command
 writes the same table. About 3 min on 2 cores. docs/BENCHMARK.md "Input the grid does not
@@ -111,12 +115,21 @@ def mirrored(rows, header):
 
 
 def main():
-    if len(sys.argv) != 4:
+    args, rows, check = sys.argv[1:], None, False
+    while args and args[0].startswith("--"):
+        if args[0] == "--rows" and len(args) > 1 and args[1].isdigit() and int(args[1]) > 0:
+            rows, args = int(args[1]), args[2:]
+        elif args[0] == "--check":
+            check, args = True, args[1:]
+        else:
+            sys.exit(f"unseen_noise: unknown or incomplete option {args[0]}\n{__doc__}")
+    if len(args) != 3:
         sys.exit(__doc__)
-    exe, data, out = os.path.abspath(sys.argv[1]), sys.argv[2], sys.argv[3]
+    exe, data, out = os.path.abspath(args[0]), args[1], args[2]
     subject = os.path.join(data, "fpha", "Subject_5")
     if not os.path.isdir(subject):
-        sys.exit(f"unseen_noise: {subject} not found (FPHA subject 5 of ../shared/data)")
+        print(f"unseen_noise: {subject} not found (FPHA subject 5 of ../shared/data): skipped")
+        sys.exit(77)
     os.makedirs(out, exist_ok=True)
 
     def hs(*args):
@@ -127,6 +140,9 @@ def main():
 
     hs("import", "--format", "fpha", "--in", subject, "--out", path("clean"))
     meta, header, clean = read_track(path("clean"))
+    if rows is not None and rows < len(clean):
+        clean = clean[:rows]
+        write_track(path("clean"), meta, header, clean, f"the first {rows} rows")
     hs("corrupt", "--in", path("clean"), "--out", path("tracker"), "--preset", "tracker", "--jitter-mm", "1.5", "--seed", "1")
     _, _, tracker = read_track(path("tracker"))
 
@@ -181,6 +197,15 @@ def main():
     with open(os.path.join(out, "unseen.json"), "w") as f:
         json.dump(results, f, indent=1)
     print(text, end="")
+    if check:
+        worse = []
+        for name, _, _, _ in cases:
+            by = {r["method"]: r["mpjpe_mm"] for r in results if r["input"] == name}
+            if not (math.isfinite(by["Multi-STGAE"]) and by["Multi-STGAE"] < by["raw"]):
+                worse.append(f"{name}: Multi-STGAE {by['Multi-STGAE']:.3f} mm, raw {by['raw']:.3f}")
+        if worse:
+            sys.exit("unseen_noise: the network is not below raw on: " + "; ".join(worse))
+        print("unseen_noise: the network is below raw on every input")
 
 
 if __name__ == "__main__":
