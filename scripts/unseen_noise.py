@@ -147,7 +147,7 @@ def main():
     _, _, tracker = read_track(path("tracker"))
 
     # (name, what, input file, truth file)
-    cases = [("tracker", "the `tracker` preset at 1.5 mm, 30 Hz (a cell of the grid, for reference)", "tracker", "clean")]
+    cases = [("tracker", "the `tracker` preset at 1.5 mm, 30 Hz (for reference)", "tracker", "clean")]
 
     def add(name, what, rows, truth="clean", m=meta):
         write_track(path(name), m, header, rows, what)
