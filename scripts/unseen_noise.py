@@ -149,8 +149,8 @@ def main():
     # (name, what, input file, truth file)
     cases = [("tracker", "the `tracker` preset at 1.5 mm, 30 Hz (for reference)", "tracker", "clean")]
 
-    def add(name, what, rows, truth="clean", m=meta):
-        write_track(path(name), m, header, rows, what)
+    def add(name, what, noisy, truth="clean"):
+        write_track(path(name), meta, header, noisy, what)
         cases.append((name, what, name, truth))
 
     add("depth", "AR(1) 0.3 jitter 0.5 / 0.5 / 3 mm in x / y / z (depth-heavy)", jitter(clean, (0.5, 0.5, 3.0), 0.3, 1))
