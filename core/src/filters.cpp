@@ -522,16 +522,10 @@ std::vector<HandSeries> filter_series(PoseFilter& filter, const HandSeries& seri
     o.t = series.t;
     o.pos.resize(series.size(), untracked_pose());
   }
-  const auto tracked = [&](size_t i) { return any_joint_tracked(series.pos[i]); };
   for (size_t i = 0; i < series.size(); ++i) {
-    // A stale answer (the row before repeated after it moved) teaches the filter nothing;
-    // pushed, it would read as the hand stopping and starting again.
-    const bool stale = i >= 2 && tracked(i) && tracked(i - 1) && tracked(i - 2) &&
-                       repeated_pose(series.pos[i], series.pos[i - 1]) &&
-                       !repeated_pose(series.pos[i - 1], series.pos[i - 2]);
-    const bool accepted = stale ? series.t[i] > filter.last_time() : filter.push(series.t[i], series.pos[i]);
+    const bool accepted = filter.push(series.t[i], series.pos[i]);
     // Untracked rows stay untracked; a rejected timestamp has nothing new to report.
-    if (!accepted || !tracked(i)) continue;
+    if (!accepted || !any_joint_tracked(series.pos[i])) continue;
     for (size_t h = 0; h < horizons_s.size(); ++h) filter.estimate(series.t[i] + horizons_s[h], out[h].pos[i]);
   }
   return out;

@@ -166,10 +166,6 @@ std::string filter_params_summary(const FilterConfig& config);
 // Runs a filter causally over one hand: for row i, push (t_i, pos_i) then estimate at
 // t_i + horizon_s. Rows where the hand is not tracked stay untracked; in tracked rows a
 // missing joint gets the filter's estimate when it has one (else stays NaN).
-// A row that repeats a row that moved (repeated_pose, track.hpp) is a tracker's stale
-// answer, not a sample: it is not pushed, and is answered from the estimate at its time.
-// One repeat only: a second in a row is pushed, so a hand that stops is held, not
-// extrapolated, and a still hand's rows are samples as always.
 // The filter is reset first.
 HandSeries filter_series(PoseFilter& filter, const HandSeries& series, double horizon_s);
 // The same for several horizons in one pass: one output per horizon, all from the same
