@@ -138,12 +138,16 @@ def main():
     def path(name):
         return os.path.join(out, name + ".csv")
 
+    def tracker_noise(clean_name, noisy_name):  # the reference noise: `tracker` at 1.5 mm, seed 1
+        hs("corrupt", "--in", path(clean_name), "--out", path(noisy_name), "--preset", "tracker", "--jitter-mm", "1.5",
+           "--seed", "1")
+
     hs("import", "--format", "fpha", "--in", subject, "--out", path("clean"))
     meta, header, clean = read_track(path("clean"))
     if rows is not None and rows < len(clean):
         clean = clean[:rows]
         write_track(path("clean"), meta, header, clean, f"the first {rows} rows")
-    hs("corrupt", "--in", path("clean"), "--out", path("tracker"), "--preset", "tracker", "--jitter-mm", "1.5", "--seed", "1")
+    tracker_noise("clean", "tracker")
     _, _, tracker = read_track(path("tracker"))
 
     # (name, what, input file, truth file)
@@ -162,14 +166,14 @@ def main():
     for k in (0.7, 1.3):
         truth = f"clean_x{k}"
         write_track(path(truth), meta, header, scaled(clean, header, k), f"scaled x{k} about the wrist")
-        hs("corrupt", "--in", path(truth), "--out", path(f"scaled_x{k}"), "--preset", "tracker", "--jitter-mm", "1.5", "--seed", "1")
+        tracker_noise(truth, f"scaled_x{k}")
         cases.append((f"scaled_x{k}", f"a hand {k} × the size (about the wrist), `tracker` 1.5 mm", f"scaled_x{k}", truth))
     write_track(path("clean_left"), meta, header, mirrored(clean, header), "mirrored to the left hand")
     add("left", "the `tracker` input mirrored to the left hand", mirrored(tracker, header), truth="clean_left")
     for rate in (45, 72, 120):
         truth = f"clean_{rate}hz"
         hs("resample", "--in", path("clean"), "--out", path(truth), "--rate", str(rate))
-        hs("corrupt", "--in", path(truth), "--out", path(f"rate_{rate}hz"), "--preset", "tracker", "--jitter-mm", "1.5", "--seed", "1")
+        tracker_noise(truth, f"rate_{rate}hz")
         cases.append((f"rate_{rate}hz", f"resampled to {rate} Hz, `tracker` 1.5 mm", f"rate_{rate}hz", truth))
 
     methods = [("raw", ["--method", "raw"]), ("One Euro (beta 50)", ["--method", "oneeuro", "--beta", "50"]),
