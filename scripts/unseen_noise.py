@@ -1,18 +1,22 @@
 #!/usr/bin/env python3
 """Kinds of input the benchmark's grid does not hold, on FPHA subject 5 (the benchmark's
-validation subject): depth-heavy jitter, slow drift, noise that comes in bursts, a runtime
-that repeats its last row, hands scaled about the wrist, the left hand, and other input
-rates. Each is scored for raw, One Euro (the layer's beta 50), Kalman and the shipped
-Multi-STGAE with `handsteady eval`; markdown table on stdout and in OUT/unseen.md.
+validation subject): depth-heavy jitter, slow drift, noise that comes in bursts, noise
+that grows with the hand's speed or towards the fingertips, a tracker that swaps two
+fingers now and then, a runtime that repeats its last row, hands scaled about the wrist,
+the left hand, and other input rates (15 to 200 Hz). Each is scored for raw, One Euro (the
+layer's beta 50), Kalman and the shipped Multi-STGAE with `handsteady eval`; markdown
+table on stdout and in OUT/unseen.md.
 
   scripts/unseen_noise.py build/release/cli/handsteady ../shared/data out/unseen
   scripts/unseen_noise.py --rows 3000 --check BIN DATA OUT   # CTest's quick run
 
 --rows N keeps the subject's first N rows; --check exits 1 unless Multi-STGAE's error is
-below raw's on every input (77, CTest's skip, when the data is absent).
+below raw's on every noisy input (77, CTest's skip, when the data is absent). The one input
+without noise (clean rows with finger swaps) is scored but not checked: on low noise the
+network's own floor is above raw's, the benchmark's low-noise criterion (README).
 
 Seeded (Python's Mersenne Twister and `handsteady corrupt --seed 1`): the same command
-writes the same table. About 3 min on 2 cores. docs/BENCHMARK.md "Input the grid does not
+writes the same table. About 4 min on 2 cores. docs/BENCHMARK.md "Input the grid does not
 hold". Nothing here is used to choose anything: it is a check of generality, run after.
 """
 import json
@@ -48,17 +52,21 @@ def write_track(path, meta, header, rows, note):
             f.write(",".join([t, hand] + ["" if x is None else f"{x:.7f}" for x in v]) + "\n")
 
 
-def jitter(rows, sd_mm, ar, seed):
-    """AR(1) jitter per coordinate, stationary SD sd_mm = (x, y, z) in mm."""
+def jitter_by_coord(rows, sd_mm, ar, seed):
+    """AR(1) jitter, stationary SD sd_mm[i] mm on coordinate i."""
     rng = random.Random(seed)
-    n = len(rows[0][2])
-    state = [0.0] * n
+    state = [0.0] * len(sd_mm)
     k = math.sqrt(1.0 - ar * ar)
     out = []
     for t, hand, v in rows:
-        state = [ar * s + k * rng.gauss(0.0, sd_mm[i % 3] * 1e-3) for i, s in enumerate(state)]
+        state = [ar * s + k * rng.gauss(0.0, sd_mm[i] * 1e-3) for i, s in enumerate(state)]
         out.append((t, hand, [None if x is None else x + state[i] for i, x in enumerate(v)]))
     return out
+
+
+def jitter(rows, sd_mm, ar, seed):
+    """AR(1) jitter per coordinate, stationary SD sd_mm = (x, y, z) in mm."""
+    return jitter_by_coord(rows, [sd_mm[i % 3] for i in range(len(rows[0][2]))], ar, seed)
 
 
 def bursts(rows, calm_mm, burst_mm, share, mean_rows, seed):
@@ -85,6 +93,57 @@ def stale(rows, share, seed):
         else:
             out.append((t, hand, v))
             prev = v
+    return out
+
+
+def speed_noise(rows, header, base_mm, mm_per_mps, seed):
+    """White noise whose SD grows with the wrist's speed (motion blur): base + k * speed."""
+    rng = random.Random(seed)
+    w = header.index("wrist_x") - 2
+    out, prev = [], None
+    for t, hand, v in rows:
+        speed = 0.0
+        if prev is not None and v[w] is not None and prev[2][w] is not None and float(t) > float(prev[0]):
+            speed = math.dist(v[w:w + 3], prev[2][w:w + 3]) / (float(t) - float(prev[0]))
+        sd = (base_mm + mm_per_mps * speed) * 1e-3
+        out.append((t, hand, [None if x is None else x + rng.gauss(0.0, sd) for x in v]))
+        prev = (t, hand, v)
+    return out
+
+
+def joint_level(name):
+    """0 palm, wrist and metacarpals ... 3 the last two joints of a finger."""
+    if name.endswith("_proximal"):
+        return 1
+    if name.endswith("_intermediate") or name == "thumb_distal":
+        return 2
+    return 3 if name.endswith("_distal") or name.endswith("_tip") else 0
+
+
+def distal_noise(rows, header, sd_by_level_mm, seed):
+    """AR(1) 0.3 jitter that grows towards the fingertips (self-occlusion)."""
+    level = [joint_level(h[:-2]) for h in header[2:]]
+    return jitter_by_coord(rows, [sd_by_level_mm[lv] for lv in level], 0.3, seed)
+
+
+def finger_swap(rows, header, a, b, per_s, mean_rows, seed):
+    """A tracker that takes finger a for finger b and back (every joint but the metacarpal)
+    for bursts of mean_rows rows, per_s times a second on average."""
+    rng = random.Random(seed)
+    cols = [i for i, h in enumerate(header[2:]) if h.startswith(a + "_") and "_metacarpal_" not in h]
+    other = [header[2:].index(header[2 + i].replace(a + "_", b + "_", 1)) for i in cols]
+    out, left, last_t = [], 0, None
+    for t, hand, v in rows:
+        dt = 0.0 if last_t is None else max(0.0, float(t) - last_t)
+        last_t = float(t)
+        if left == 0 and rng.random() < per_s * dt:
+            left = max(1, round(rng.expovariate(1.0 / mean_rows)))
+        u = list(v)
+        if left > 0:
+            left -= 1
+            for i, j in zip(cols, other):
+                u[i], u[j] = v[j], v[i]
+        out.append((t, hand, u))
     return out
 
 
@@ -162,6 +221,14 @@ def main():
     add("drift", "slow drift: 2 mm, AR(1) 0.95 (a 0.6 s time constant)", jitter(clean, (2.0, 2.0, 2.0), 0.95, 2))
     add("bursts", "0.3 mm white with 4 mm bursts a fifth of the time (15 rows long on average)",
         bursts(clean, 0.3, 4.0, 0.2, 15, 3))
+    add("speed", "white 0.3 mm + 3 mm per m/s of the wrist's speed (motion blur)", speed_noise(clean, header, 0.3, 3.0, 5))
+    add("distal", "AR(1) 0.3 jitter 0.3 / 0.8 / 1.5 / 2.5 mm from the metacarpals to the fingertips",
+        distal_noise(clean, header, (0.3, 0.8, 1.5, 2.5), 6))
+    add("swaps", "the `tracker` input with middle and ring fingers swapped 0.5 times a second (8 rows on average)",
+        finger_swap(tracker, header, "middle", "ring", 0.5, 8, 7))
+    add("swaps_clean", "clean rows with the same swaps (no noise: not checked)",
+        finger_swap(clean, header, "middle", "ring", 0.5, 8, 7))
+    unchecked = {"swaps_clean"}
     add("stale", "the `tracker` input with 30 % of rows the previous row again", stale(tracker, 0.3, 4))
     for k in (0.7, 1.3):
         truth = f"clean_x{k}"
@@ -170,7 +237,7 @@ def main():
         cases.append((f"scaled_x{k}", f"a hand {k} × the size (about the wrist), `tracker` 1.5 mm", f"scaled_x{k}", truth))
     write_track(path("clean_left"), meta, header, mirrored(clean, header), "mirrored to the left hand")
     add("left", "the `tracker` input mirrored to the left hand", mirrored(tracker, header), truth="clean_left")
-    for rate in (45, 72, 120):
+    for rate in (15, 45, 72, 120, 200):
         truth = f"clean_{rate}hz"
         hs("resample", "--in", path("clean"), "--out", path(truth), "--rate", str(rate))
         tracker_noise(truth, f"rate_{rate}hz")
@@ -204,12 +271,14 @@ def main():
     if check:
         worse = []
         for name, _, _, _ in cases:
+            if name in unchecked:
+                continue
             by = {r["method"]: r["mpjpe_mm"] for r in results if r["input"] == name}
             if not (math.isfinite(by["Multi-STGAE"]) and by["Multi-STGAE"] < by["raw"]):
                 worse.append(f"{name}: Multi-STGAE {by['Multi-STGAE']:.3f} mm, raw {by['raw']:.3f}")
         if worse:
             sys.exit("unseen_noise: the network is not below raw on: " + "; ".join(worse))
-        print("unseen_noise: the network is below raw on every input")
+        print("unseen_noise: the network is below raw on every noisy input")
 
 
 if __name__ == "__main__":
