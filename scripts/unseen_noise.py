@@ -16,7 +16,7 @@ without noise (clean rows with finger swaps) is scored but not checked: on low n
 network's own floor is above raw's, the benchmark's low-noise criterion (README).
 
 Seeded (Python's Mersenne Twister and `handsteady corrupt --seed 1`): the same command
-writes the same table. About 4 min on 2 cores. docs/BENCHMARK.md "Input the grid does not
+writes the same table. About 4.5 min on 2 cores. docs/BENCHMARK.md "Input the grid does not
 hold". Nothing here is used to choose anything: it is a check of generality, run after.
 """
 import json
