@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include <fstream>
+#include <map>
 #include <sstream>
 
 using namespace hs;
@@ -394,6 +395,53 @@ TEST_CASE("the recordings-without-truth criterion compares a model with One Euro
   CHECK_MESSAGE(pass.find("**pass** 2/2") != std::string::npos, pass);
   CHECK_MESSAGE(fail.find("**fail** 1/2") != std::string::npos, fail);
   CHECK_MESSAGE(fail.find("rec vs oneeuro at 4.0 ms") != std::string::npos, fail);
+}
+
+TEST_CASE("recordings added to benchmark/ are read by their kind, anything else is named in a note") {
+  namespace fs = std::filesystem;
+  const fs::path data = test::temp_dir("benchmark_extra");
+  const fs::path extra = data / "benchmark";
+  fs::create_directories(extra / "takes");
+  fs::create_directories(extra / "fpha_subject" / "act" / "1");
+  Track one;
+  add_hand_series(one, Hand::Right, synth_series(2.0, 60.0, 21));
+  write_track_csv(one, extra / "a_track.csv");
+  write_track_csv(one, extra / "takes" / "t1.csv");
+  write_track_csv(one, extra / "takes" / "t2.csv");
+  write_track_csv(one, extra / "takes.csv");  // the folder's set name again
+  fs::copy_file(test::fixture("mrtk_small.csv"), extra / "hl.csv");
+  {
+    std::ofstream fpha(extra / "fpha_subject" / "act" / "1" / "skeleton.txt");
+    for (int f = 0; f < 3; ++f) {
+      fpha << f;
+      for (int j = 0; j < 21; ++j) fpha << fmt::format(" {:.1f} {:.1f} {:.1f}", 10.0 * j + f, 100.0 + j, 300.0 + 2.0 * j);
+      fpha << '\n';
+    }
+    std::ofstream(extra / "notes.txt") << "not a recording\n";
+    std::ofstream(extra / "bad.bvh") << "HIERARCHY\nnonsense\n";
+  }
+  std::vector<std::string> notes;
+  const std::vector<bench::Dataset> sets = bench::load_datasets(data, false, notes);
+  std::map<std::string, const bench::Dataset*> by;
+  for (const auto& d : sets) by[d.name] = &d;
+  std::string all_notes;
+  for (const auto& n : notes) all_notes += n + "\n";
+  INFO(all_notes);
+  REQUIRE(by.size() == 4);
+  for (const char* name : {"extra-a_track", "extra-takes", "extra-fpha_subject", "extra-hl"}) {
+    REQUIRE_MESSAGE(by.count(name) == 1, name);
+    CHECK(by[name]->split == bench::Split::Test);
+    CHECK(!by[name]->clean.rows.empty());
+  }
+  CHECK(by["extra-a_track"]->has_truth);
+  CHECK(by["extra-takes"]->has_truth);
+  CHECK(by["extra-takes"]->clean.rows.size() > 2 * one.rows.size());  // both takes, a lost row between
+  CHECK(by["extra-fpha_subject"]->has_truth);
+  CHECK_FALSE(by["extra-hl"]->has_truth);  // a HoloLens 2 export: scored against itself
+  CHECK(all_notes.find("benchmark/notes.txt skipped: not a recording the benchmark reads") != std::string::npos);
+  CHECK(all_notes.find("extra-bad skipped") != std::string::npos);
+  CHECK(all_notes.find("benchmark/takes.csv skipped: a set named extra-takes was read already") != std::string::npos);
+  fs::remove_all(data);
 }
 
 TEST_CASE("handsteady benchmark refuses two models under one label before reading any data") {

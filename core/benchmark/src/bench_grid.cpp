@@ -12,6 +12,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <fstream>
 #include <limits>
 #include <map>
 #include <mutex>
@@ -86,6 +87,18 @@ Track folder_takes(const fs::path& dir, const std::function<bool(const std::stri
 Track csv_takes(const fs::path& dir, const std::function<bool(const std::string&)>& keep) {
   return folder_takes(dir, keep, [](const fs::path& f) { return read_track_csv(f); });
 }
+
+// A HoloLens 2 (MRTK) export rather than a track CSV: its header starts "Label,Time,".
+bool is_mrtk_csv(const fs::path& f) {
+  std::ifstream in(f);
+  std::string first;
+  std::getline(in, first);
+  return first.starts_with("Label,Time,");
+}
+
+// What benchmark/ may hold, one test set each (docs/BENCHMARK.md "Data and the split").
+inline constexpr const char* kExtraKinds =
+    "a track CSV, a HoloLens 2 (MRTK) CSV, a ManipNet BVH, or a folder of track CSVs or of FPHA takes";
 
 CorruptionConfig tracker(const TrackerCorruption& t) {
   CorruptionConfig c;
@@ -162,12 +175,35 @@ std::vector<Dataset> load_datasets(const fs::path& data_dir, bool quick, std::ve
     return folder_takes(data_dir / "hololens2", [](const std::string&) { return true; },
                         [](const fs::path& f) { return import_mrtk(f); });
   });
-  // Data added later: every track CSV under benchmark/, one test set each.
+  // Data added later, in benchmark/: each recording there is a test set, read by its kind;
+  // anything else is named in a note, never passed over in silence.
   const fs::path extra = data_dir / "benchmark";
-  if (fs::is_directory(extra))
-    for (const auto& f : csv_files(extra, [](const std::string&) { return true; }))
-      add("extra-" + f.stem().string(), Split::Test, true, 90.0, "benchmark/" + f.filename().string(),
-          [f] { return read_track_csv(f); });
+  if (fs::is_directory(extra)) {
+    std::vector<fs::path> entries;
+    for (const auto& e : fs::directory_iterator(extra)) entries.push_back(e.path());
+    std::sort(entries.begin(), entries.end());
+    for (const fs::path& f : entries) {
+      const std::string name = "extra-" + (fs::is_directory(f) ? f.filename() : f.stem()).string();
+      const std::string source = "benchmark/" + f.filename().string();
+      if (std::any_of(out.begin(), out.end(), [&](const Dataset& d) { return d.name == name; })) {
+        notes.push_back(fmt::format("{} skipped: a set named {} was read already", source, name));
+      } else if (fs::is_directory(f)) {
+        add(name, Split::Test, true, 90.0, source + "/", [f] {
+          return csv_files(f, [](const std::string&) { return true; }).empty()
+                     ? import_fpha(f)
+                     : csv_takes(f, [](const std::string&) { return true; });
+        });
+      } else if (f.extension() == ".csv" && is_mrtk_csv(f)) {
+        add(name, Split::Test, false, 0.0, source, [f] { return import_mrtk(f); });
+      } else if (f.extension() == ".csv") {
+        add(name, Split::Test, true, 90.0, source, [f] { return read_track_csv(f); });
+      } else if (f.extension() == ".bvh") {
+        add(name, Split::Test, true, 90.0, source, [f] { return import_bvh(f); });
+      } else {
+        notes.push_back(fmt::format("{} skipped: not a recording the benchmark reads ({})", source, kExtraKinds));
+      }
+    }
+  }
   return out;
 }
 
