@@ -72,7 +72,7 @@ void log_once(std::atomic<bool>& flag, LogLevel level, std::string_view msg) noe
 std::atomic<bool> g_logged_internal{false}, g_logged_world_space{false}, g_logged_locate_space{false},
     g_logged_world_locate{false}, g_logged_record{false}, g_logged_engine{false}, g_logged_space_garbage{false},
     g_logged_latest{false}, g_logged_time{false}, g_logged_repaired{false}, g_logged_garbage{false},
-    g_logged_recentre{false};
+    g_logged_recentre{false}, g_logged_untracked{false};
 
 // ---------------------------------------------------------------- state
 
@@ -287,6 +287,17 @@ bool position_tracked(const XrHandJointLocationEXT& j) {
   return (j.locationFlags & need) == need;
 }
 
+// An active hand the runtime only infers: positions valid, none tracked (some runtimes
+// report a hand they cannot see, or one driven by a controller, this way).
+bool none_tracked_but_valid(const XrHandJointLocationEXT* joints) noexcept {
+  bool valid = false;
+  for (int j = 0; j < kJointCount; ++j) {
+    if (position_tracked(joints[j])) return false;
+    valid = valid || (joints[j].locationFlags & XR_SPACE_LOCATION_POSITION_VALID_BIT) != 0;
+  }
+  return valid;
+}
+
 template <class T, XrStructureType Type>
 T* find_in_chain(void* next) {
   for (auto* s = static_cast<XrBaseOutStructure*>(next); s; s = s->next)
@@ -497,6 +508,11 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
       out->jointCount != XR_HAND_JOINT_COUNT_EXT)
     return res;
   try {
+    if (none_tracked_but_valid(out->jointLocations))
+      log_once(g_logged_untracked, LogLevel::Info,
+               "the runtime reported an active hand with valid joints but none tracked (no "
+               "XR_SPACE_LOCATION_POSITION_TRACKED_BIT): the layer filters tracked joints only, such answers pass "
+               "through unfiltered");
     JointMask garbage = garbage_joints(out->jointLocations);
     filter_answer(*t, *info, *out, garbage);
     // Whatever the layer could not replace is never handed over as garbage.

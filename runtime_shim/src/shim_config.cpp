@@ -144,6 +144,7 @@ ShimConfig shim_config_from_env() {
       else if (kind == "velocity") c.faults.velocity = p;
       else if (kind == "radius") c.faults.radius = p;
       else if (kind == "collapse") c.faults.collapse = p;
+      else if (kind == "untracked") c.faults.untracked = p;
       else throw std::invalid_argument("HANDSTEADY_SHIM_FAULTS: unknown fault '" + kind + "'");
     }
   }

@@ -32,6 +32,7 @@ struct FaultRates {
   double velocity = 0.0;  // per joint: linear velocity becomes 1e6 m/s or NaN (flags valid)
   double radius = 0.0;    // per joint: radius becomes NaN, infinite, negative or 1e30 (position flags valid)
   double collapse = 0.0;  // per hand and answered time: every joint at the palm's position (flags valid)
+  double untracked = 0.0; // per hand and answered time: every joint valid but not tracked (inferred)
 };
 
 // LOCAL recentred once (as a user's "reset view" does): from track time at_s on, LOCAL's
@@ -59,7 +60,7 @@ struct ShimConfig {
   bool head_motion = false;      // HANDSTEADY_SHIM_HEAD_MOTION=1
   bool space_velocity = true;    // HANDSTEADY_SHIM_SPACE_VELOCITY=0: xrLocateSpace answers no XrSpaceVelocity
   std::optional<Recenter> recenter;  // HANDSTEADY_SHIM_RECENTER=<track_s>,<dx_m>,<dy_m>,<dz_m>,<yaw_deg>
-  FaultRates faults;             // HANDSTEADY_SHIM_FAULTS=nan:<p>,huge:<p>,quat:<p>,origin:<p>,space:<p>,velocity:<p>,radius:<p>,collapse:<p>
+  FaultRates faults;             // HANDSTEADY_SHIM_FAULTS=nan:<p>,huge:<p>,quat:<p>,origin:<p>,space:<p>,velocity:<p>,radius:<p>,collapse:<p>,untracked:<p>
 };
 
 // Throws std::invalid_argument naming the variable on malformed values.

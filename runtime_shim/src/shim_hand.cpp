@@ -85,8 +85,12 @@ double fault_draw(XrTime t, int a, int b, uint64_t salt) {
 void inject_joint_faults(const FaultRates& f, XrTime t, int h, XrHandJointLocationEXT* joints,
                          XrHandJointVelocityEXT* velocities) {
   if (f.nan <= 0.0 && f.huge <= 0.0 && f.quat <= 0.0 && f.origin <= 0.0 && f.velocity <= 0.0 && f.radius <= 0.0 &&
-      f.collapse <= 0.0)
+      f.collapse <= 0.0 && f.untracked <= 0.0)
     return;
+  if (fault_draw(t, h, 0, 13) < f.untracked)  // a runtime reporting only its inferred hand
+    for (int j = 0; j < kJointCount; ++j)
+      joints[j].locationFlags &= ~static_cast<XrSpaceLocationFlags>(XR_SPACE_LOCATION_POSITION_TRACKED_BIT |
+                                                                    XR_SPACE_LOCATION_ORIENTATION_TRACKED_BIT);
   if (fault_draw(t, h, 0, 12) < f.collapse)
     for (int j = 1; j < kJointCount; ++j) joints[j].pose.position = joints[0].pose.position;
   for (int j = 0; j < kJointCount; ++j) {

@@ -350,6 +350,45 @@ TEST_CASE("garbage flagged valid (origin, denormal, NaN, 1e30 joints, collapsed 
   });
 }
 
+TEST_CASE("an inferred hand (every joint valid, none tracked) passes through unchanged, and the layer says so once") {
+  const TrackFiles f = make_tracks("inferred", 1.0);
+  const auto log = f.dir / "inferred_stderr.txt";
+  {
+    // One log for every engine and mode: the layer logs once per process.
+    test::StderrToFile to_log(log);
+    each_engine_and_mode(f, [] {
+      set_env("HANDSTEADY_SHIM_FAULTS", "untracked:1");
+      set_env("HANDSTEADY_LOG", "info");
+    }, [&](const std::string&, const std::string&) {
+      App app(true, kRawExt);
+      double worst = 0.0;
+      long answers = 0, flags_differ = 0;
+      for (int i = 0; i < 60; ++i) {
+        const XrTime T = app.frame();
+        for (XrHandEXT hand : {XR_HAND_LEFT_EXT, XR_HAND_RIGHT_EXT}) {
+          const Joints j = app.locate(hand, app.local, T);
+          const Joints r = app.locate_raw(hand, app.local, T);
+          REQUIRE(j.result == XR_SUCCESS);
+          if (!j.active) continue;
+          for (int k = 0; k < kJointCount; ++k) flags_differ += j.loc[k].locationFlags != r.loc[k].locationFlags;
+          worst = std::max(worst, max_deviation(j, r));
+          ++answers;
+        }
+      }
+      CHECK(answers > 100);
+      CHECK(flags_differ == 0);
+      CHECK(worst == 0.0);
+      app.shutdown();
+    });
+  }
+  const std::string text = hs::test::slurp(log);
+  INFO(text);
+  const std::string said = "valid joints but none tracked";
+  const size_t at = text.find(said);
+  CHECK(at != std::string::npos);
+  CHECK(text.find(said, at + 1) == std::string::npos);  // once
+}
+
 TEST_CASE("a recentred LOCAL (reference space change pending): answers in STAGE show no transient") {
   // At 2 s the runtime moves LOCAL (the layer's world space) by 6 cm and 8 degrees, as a
   // user's "reset view" does: the hand seems to jump 7-9 cm in LOCAL, a step the engine
