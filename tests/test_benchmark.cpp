@@ -418,6 +418,8 @@ TEST_CASE("recordings added to benchmark/ are read by their kind, anything else 
       fpha << '\n';
     }
     std::ofstream(extra / "notes.txt") << "not a recording\n";
+    fs::create_directories(data / "newsensor");  // beside the known sets, not in benchmark/
+    std::ofstream(data / "README.md") << "the data's own description\n";
     std::ofstream(extra / "bad.bvh") << "HIERARCHY\nnonsense\n";
   }
   std::vector<std::string> notes;
@@ -441,6 +443,8 @@ TEST_CASE("recordings added to benchmark/ are read by their kind, anything else 
   CHECK(all_notes.find("benchmark/notes.txt skipped: not a recording the benchmark reads") != std::string::npos);
   CHECK(all_notes.find("extra-bad skipped") != std::string::npos);
   CHECK(all_notes.find("benchmark/takes.csv skipped: a set named extra-takes was read already") != std::string::npos);
+  CHECK(all_notes.find("newsensor not read: ") != std::string::npos);
+  CHECK(all_notes.find("README") == std::string::npos);
   fs::remove_all(data);
 }
 

@@ -204,6 +204,21 @@ std::vector<Dataset> load_datasets(const fs::path& data_dir, bool quick, std::ve
       }
     }
   }
+  // Whatever else the data folder holds is not read: say so, so that recordings put beside
+  // the known sets are not taken for scored.
+  if (fs::is_directory(data_dir)) {
+    std::vector<std::string> others;
+    for (const auto& e : fs::directory_iterator(data_dir)) {
+      const std::string n = e.path().filename().string();
+      if (n != "fpha" && n != "manipnet" && n != "leap" && n != "hololens2" && n != "benchmark" && !n.starts_with("README"))
+        others.push_back(n);
+    }
+    std::sort(others.begin(), others.end());
+    for (const std::string& n : others)
+      notes.push_back(fmt::format("{} not read: the benchmark reads its own sets and benchmark/ (recordings to score go "
+                                  "in benchmark/: {})",
+                                  n, kExtraKinds));
+  }
   return out;
 }
 
