@@ -54,6 +54,7 @@ struct FilterOptions {
   bool palm_fit = false;     // fit the hand's rigid palm to each input row first (any method)
   bool no_palm_fit = false;  // ... not even for a network method (where it is the default)
   bool tremor_cancel = false;  // cancel quasi-periodic tremor in each input row first (any method)
+  bool skip_repeats = false;   // a row repeating one that moved is a stale answer: not fed (filters.hpp)
   bool bone_fit = false;     // move each answer's finger joints towards the learnt bone lengths and planes (any method)
   bool no_bone_fit = false;  // ... not even for a network method (where it is the default)
 };
@@ -169,6 +170,8 @@ void run_filter(const FilterOptions& o) {
   if (o.bone_fit && o.offline) throw InputError({"", 0, "--bone-fit"}, "--bone-fit streams; --offline has none");
   if (o.tremor_cancel && o.offline)
     throw InputError({"", 0, "--tremor-cancel"}, "--tremor-cancel streams; --offline has none");
+  if (o.skip_repeats && o.offline)
+    throw InputError({"", 0, "--skip-repeats"}, "--skip-repeats streams; --offline has none");
   if (!o.rate_models.empty() && (!stgae || o.offline))
     throw InputError({"", 0, "--rate-model"}, "--rate-model is for --method stgae or dgn streaming");
   if (!o.model_file.empty() && !stgae) {
@@ -185,10 +188,12 @@ void run_filter(const FilterOptions& o) {
   }
   Track track = read_track_csv(o.in);
   const double horizon_s = o.horizon_ms * 1e-3;
-  map_hands(track, [&](const HandSeries& s) { return filter_series_with(config, s, horizon_s); });  // a filter per hand
+  map_hands(track, [&](const HandSeries& s) {  // a filter per hand
+    return filter_series_with(config, s, horizon_s, o.skip_repeats);
+  });
   // Appended (not replaced) so that a chain of filters stays visible; meta() reads the last.
-  track.header_lines.push_back(
-      fmt::format("filter: {} horizon_ms={} {}", o.method, o.horizon_ms, filter_params_summary(config)));
+  track.header_lines.push_back(fmt::format("filter: {} horizon_ms={} {}{}", o.method, o.horizon_ms,
+                                           filter_params_summary(config), o.skip_repeats ? " skip_repeats" : ""));
   write_track_csv(track, o.out);
 }
 
@@ -256,6 +261,10 @@ void setup_filter(CLI::App& app) {
   sub->add_flag("--tremor-cancel", o->tremor_cancel,
                 "Cancel quasi-periodic tremor (3.5-12.5 Hz) in each input row before the method, behind the palm fit "
                 "(any method; docs/FILTERS.md \"Tremor canceller\")");
+  sub->add_flag("--skip-repeats", o->skip_repeats,
+                "Any streaming method: a row that repeats a row that moved (within 10 um) is taken for the runtime's "
+                "stale answer, as the OpenXR layer takes it: answered from the filter's estimate, not fed (one per "
+                "run; docs/FILTERS.md \"CLI\", repeated rows)");
   sub->add_flag("--offline", o->offline,
                 "stgae, dgn: run a centred model in window mode over the whole recording (not causal); with "
                 "--horizon-ms, the window ending at each row predicts (the paper's protocol)");

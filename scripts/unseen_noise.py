@@ -2,10 +2,10 @@
 """Kinds of input the benchmark's grid does not hold, on FPHA subject 5 (the benchmark's
 validation subject): depth-heavy jitter, slow drift, noise that comes in bursts, noise
 that grows with the hand's speed or towards the fingertips, a tracker that swaps two
-fingers now and then, a runtime that repeats its last row, hands scaled about the wrist,
-the left hand, and other input rates (15 to 200 Hz). Each is scored for raw, One Euro (the
-layer's beta 50), Kalman and the shipped Multi-STGAE with `handsteady eval`; markdown
-table on stdout and in OUT/unseen.md.
+fingers now and then, a runtime that repeats its last row (also with `--skip-repeats`),
+hands scaled about the wrist, the left hand, and other input rates (15 to 200 Hz). Each is
+scored for raw, One Euro (the layer's beta 50), Kalman and the shipped Multi-STGAE with
+`handsteady eval`; markdown table on stdout and in OUT/unseen.md.
 
   scripts/unseen_noise.py build/release/cli/handsteady ../shared/data out/unseen
   scripts/unseen_noise.py --rows 3000 --check BIN DATA OUT   # CTest's quick run
@@ -230,6 +230,8 @@ def main():
         finger_swap(clean, header, "middle", "ring", 0.5, 8, 7))
     unchecked = {"swaps_clean"}
     add("stale", "the `tracker` input with 30 % of rows the previous row again", stale(tracker, 0.3, 4))
+    # The same input with every method told to take such rows as the layer does.
+    cases.append(("stale_skipped", "the same, each method run with `--skip-repeats`", "stale", "clean", ["--skip-repeats"]))
     for k in (0.7, 1.3):
         truth = f"clean_x{k}"
         write_track(path(truth), meta, header, scaled(clean, header, k), f"scaled x{k} about the wrist")
@@ -247,11 +249,11 @@ def main():
                ("Kalman", ["--method", "kalman"]), ("Multi-STGAE", ["--method", "stgae"])]
     lines = ["| input | " + " | ".join(m for m, _ in methods) + " |", "|---|" + "---:|" * len(methods)]
     results = []
-    for name, what, inp, truth in cases:
+    for name, what, inp, truth, *extra in cases:
         cells = []
         for label, args in methods:
             est = os.path.join(out, "estimate.csv")
-            hs("filter", "--in", path(inp), "--out", est, *args)
+            hs("filter", "--in", path(inp), "--out", est, *args, *(extra[0] if extra else []))
             r = subprocess.run([exe, "eval", "--truth", path(truth), "--in", est, "--json"], check=True,
                                capture_output=True, text=True)
             d = json.loads(r.stdout)
@@ -270,7 +272,7 @@ def main():
     print(text, end="")
     if check:
         worse = []
-        for name, _, _, _ in cases:
+        for name, *_ in cases:
             if name in unchecked:
                 continue
             by = {r["method"]: r["mpjpe_mm"] for r in results if r["input"] == name}

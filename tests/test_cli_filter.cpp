@@ -112,6 +112,33 @@ TEST_CASE("filter is causal: the output of a truncated input is a prefix of the 
   fs::remove_all(dir);
 }
 
+TEST_CASE("filter --skip-repeats answers a stale row from the estimate, and says so in the metadata") {
+  const fs::path dir = hs::test::temp_dir("cli_filter_repeats");
+  hs::Track in = test_track(40);
+  // The left hand's row 25 (on its ramp) answered again at row 26: a runtime's stale answer.
+  const size_t row25 = 2 * 25, row26 = 2 * 26;
+  REQUIRE(in.rows[row26].hand == Hand::Left);
+  in.rows[row26].pos = in.rows[row25].pos;
+  hs::write_track_csv(in, dir / "in.csv");
+  const hs::Track plain = run_filter(dir / "in.csv", dir / "plain.csv", "--method kalman --meas-sd-mm 1");
+  const hs::Track skip = run_filter(dir / "in.csv", dir / "skip.csv", "--method kalman --meas-sd-mm 1 --skip-repeats");
+  REQUIRE(skip.rows.size() == plain.rows.size());
+  // Before the stale row nothing differs; on it the answer goes on with the ramp.
+  for (size_t i = 0; i < row26; ++i)
+    if (!plain.rows[i].pos.array().isNaN().all()) CHECK((plain.rows[i].pos - skip.rows[i].pos).cwiseAbs().maxCoeff() < 1e-12);
+  const Vec3 v(0.2, -0.1, 0.05);
+  const Pose on_ramp = pose_at(v * skip.rows[row26].t);
+  CHECK((skip.rows[row26].pos - on_ramp).cwiseAbs().maxCoeff() < 1e-3);
+  CHECK((plain.rows[row26].pos - on_ramp).cwiseAbs().maxCoeff() > 2e-3);
+  REQUIRE(skip.meta("filter").has_value());
+  CHECK(skip.meta("filter")->ends_with(" skip_repeats"));
+  CHECK_FALSE(plain.meta("filter")->ends_with(" skip_repeats"));
+  // Window mode has no stream to skip rows of.
+  const std::string io = "--in " + quoted(dir / "in.csv") + " --out " + quoted(dir / "o.csv");
+  CHECK(hs::test::run_cli("filter " + io + " --method stgae --offline --skip-repeats 2>/dev/null") == 2);
+  fs::remove_all(dir);
+}
+
 TEST_CASE("filter rejects bad options with a non-zero exit") {
   const fs::path dir = hs::test::temp_dir("cli_filter_bad");
   hs::write_track_csv(test_track(5), dir / "in.csv");

@@ -14,6 +14,7 @@
 #include <limits>
 #include <numbers>
 #include <random>
+#include <string>
 #include <vector>
 
 
@@ -523,6 +524,51 @@ TEST_CASE("filter_series: causal per row, untracked rows stay untracked") {
     REQUIRE(g->push(s.t[i], s.pos[i]));
     if (i != 5) CHECK(same_pose(out.pos[i], estimate(*g, s.t[i] + 0.03)));
   }
+}
+
+TEST_CASE("filter_series skipping stale rows: one after motion is answered from the estimate, a still hand's rows are samples") {
+  // A moving hand whose tracker answers row 10 again at row 11 (a stale answer, within the
+  // layer's 10 um of float rounding), and rows 20..22 again at 21, 22 and 23 (it stops).
+  const Motion m = noisy_motion(40, 29);
+  hs::HandSeries s;
+  s.t = m.t;
+  s.pos = m.pos;
+  s.pos[11] = s.pos[10];
+  s.pos[11](4, 1) += 3e-6;
+  for (size_t i = 21; i <= 23; ++i) s.pos[i] = s.pos[20];
+  for (FilterMethod method : {FilterMethod::Kalman, FilterMethod::Desp}) {
+    const std::string name(hs::filter_method_name(method));
+    CAPTURE(name);
+    auto f = hs::make_filter(config(method));
+    const hs::HandSeries out = hs::filter_series(*f, s, 0.02, true);
+    // Not asked (the default), every row is a sample: the same filter fed every row.
+    auto d = hs::make_filter(config(method));
+    const hs::HandSeries plain = hs::filter_series(*d, s, 0.02);
+    auto every = hs::make_filter(config(method));
+    for (size_t i = 0; i < s.size(); ++i) {
+      REQUIRE(every->push(s.t[i], s.pos[i]));
+      CHECK(same_pose(plain.pos[i], estimate(*every, s.t[i] + 0.02)));
+    }
+    CHECK((plain.pos[11] - out.pos[11]).norm() > 1e-4);
+    // The same filter fed every row but 11 and 21 (the first repeat of each run).
+    auto g = hs::make_filter(config(method));
+    for (size_t i = 0; i < s.size(); ++i) {
+      if (i != 11 && i != 21) REQUIRE(g->push(s.t[i], s.pos[i]));
+      CHECK(same_pose(out.pos[i], estimate(*g, s.t[i] + 0.02)));
+    }
+    // Row 11's answer carries the motion on: it is not the stale pose.
+    CHECK((out.pos[11] - s.pos[11]).norm() > 1e-3);
+  }
+  // A hand still from its first row: every row is a sample, the answer is the pose.
+  hs::HandSeries still;
+  for (int i = 0; i < 30; ++i) {
+    still.t.push_back(i / 30.0);
+    still.pos.push_back(pose_at(Vec3(0.1, 0.2, -0.3)));
+  }
+  auto k = hs::make_filter(config(FilterMethod::Kalman));
+  const hs::HandSeries held = hs::filter_series(*k, still, 0.0, true);
+  CHECK(k->last_time() == still.t.back());
+  for (size_t i = 0; i < still.size(); ++i) CHECK((held.pos[i] - still.pos[i]).norm() < 1e-9);
 }
 
 TEST_CASE("push and estimate never allocate") {

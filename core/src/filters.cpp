@@ -515,24 +515,32 @@ std::string filter_params_summary(const FilterConfig& c) {
   return s + fmt::format("max_gap_ms={}", c.max_gap_s * 1e3) + fit;
 }
 
-std::vector<HandSeries> filter_series(PoseFilter& filter, const HandSeries& series, std::span<const double> horizons_s) {
+std::vector<HandSeries> filter_series(PoseFilter& filter, const HandSeries& series, std::span<const double> horizons_s,
+                                      bool skip_stale) {
   filter.reset();
   std::vector<HandSeries> out(horizons_s.size());
   for (HandSeries& o : out) {
     o.t = series.t;
     o.pos.resize(series.size(), untracked_pose());
   }
+  const auto tracked = [&](size_t i) { return any_joint_tracked(series.pos[i]); };
   for (size_t i = 0; i < series.size(); ++i) {
-    const bool accepted = filter.push(series.t[i], series.pos[i]);
+    // A stale answer (the row before repeated after it moved) teaches the filter nothing;
+    // pushed, it would read as the hand stopping and starting again.
+    const bool stale = skip_stale && i >= 2 && tracked(i) && tracked(i - 1) && tracked(i - 2) &&
+                       repeated_pose(series.pos[i], series.pos[i - 1]) &&
+                       !repeated_pose(series.pos[i - 1], series.pos[i - 2]);
+    const bool accepted = stale ? series.t[i] > filter.last_time() : filter.push(series.t[i], series.pos[i]);
     // Untracked rows stay untracked; a rejected timestamp has nothing new to report.
-    if (!accepted || !any_joint_tracked(series.pos[i])) continue;
+    if (!accepted || !tracked(i)) continue;
     for (size_t h = 0; h < horizons_s.size(); ++h) filter.estimate(series.t[i] + horizons_s[h], out[h].pos[i]);
   }
   return out;
 }
 
-HandSeries filter_series_with(const FilterConfig& config, const HandSeries& series, double horizon_s) {
+HandSeries filter_series_with(const FilterConfig& config, const HandSeries& series, double horizon_s, bool skip_stale) {
   if (is_network(config.method) && config.stgae.offline) {
+    if (skip_stale) throw std::invalid_argument("skipping stale rows streams; window mode (offline) has none");
     if (config.palm_fit.value_or(false))
       throw std::invalid_argument("the palm fit streams; window mode (offline) has none");
     if (config.tremor_cancel)
@@ -541,11 +549,11 @@ HandSeries filter_series_with(const FilterConfig& config, const HandSeries& seri
     return stgae_offline_series(*config.stgae.model, series, horizon_s);
   }
   const std::unique_ptr<PoseFilter> filter = make_filter(config);
-  return filter_series(*filter, series, horizon_s);
+  return filter_series(*filter, series, horizon_s, skip_stale);
 }
 
-HandSeries filter_series(PoseFilter& filter, const HandSeries& series, double horizon_s) {
-  return std::move(filter_series(filter, series, std::span<const double>(&horizon_s, 1)).front());
+HandSeries filter_series(PoseFilter& filter, const HandSeries& series, double horizon_s, bool skip_stale) {
+  return std::move(filter_series(filter, series, std::span<const double>(&horizon_s, 1), skip_stale).front());
 }
 
 }  // namespace hs

@@ -38,6 +38,15 @@ bool any_joint_tracked(const Pose& p) {
   return false;
 }
 
+bool repeated_pose(const Pose& a, const Pose& b) noexcept {
+  for (int j = 0; j < kJointCount; ++j) {
+    if (joint_tracked(a, j) != joint_tracked(b, j)) return false;
+    if (joint_tracked(a, j) && !((a.row(j) - b.row(j)).squaredNorm() <= kRepeatToleranceM * kRepeatToleranceM))
+      return false;
+  }
+  return true;
+}
+
 int tracked_joint_count(const Pose& p) {
   int n = 0;
   for (int j = 0; j < kJointCount; ++j) n += joint_tracked(p, j) ? 1 : 0;

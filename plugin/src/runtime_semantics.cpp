@@ -29,15 +29,6 @@ bool same_pose(const Pose& a, const Pose& b) noexcept {
   return true;
 }
 
-bool repeated_pose(const Pose& a, const Pose& b) noexcept {
-  for (int j = 0; j < kJointCount; ++j) {
-    if (joint_tracked(a, j) != joint_tracked(b, j)) return false;
-    if (joint_tracked(a, j) && !((a.row(j) - b.row(j)).squaredNorm() <= kRepeatToleranceM * kRepeatToleranceM))
-      return false;
-  }
-  return true;
-}
-
 std::string_view semantics_name(TimeSemantics s) noexcept {
   return s == TimeSemantics::Latest ? "latest pose whatever the time" : "pose at the asked time";
 }

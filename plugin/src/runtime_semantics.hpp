@@ -41,12 +41,7 @@ class SemanticsProbe {
 // Bit-identical tracked joints (and the same joints tracked).
 bool same_pose(const Pose& a, const Pose& b) noexcept;
 
-// The runtime's answer repeated: the same joints tracked, none moved by more than
-// kRepeatToleranceM. A sample taken through the app's base space and back differs from
-// the runtime's own by float rounding (well under a micrometre); a moving or tracked
-// hand moves far more between two samples, and a perfectly still one is a repeat either way.
-inline constexpr double kRepeatToleranceM = 1e-5;
-bool repeated_pose(const Pose& a, const Pose& b) noexcept;
+// The runtime's answer repeated: hs::repeated_pose (track.hpp).
 
 std::string_view semantics_name(TimeSemantics s) noexcept;
 

@@ -166,13 +166,22 @@ std::string filter_params_summary(const FilterConfig& config);
 // Runs a filter causally over one hand: for row i, push (t_i, pos_i) then estimate at
 // t_i + horizon_s. Rows where the hand is not tracked stay untracked; in tracked rows a
 // missing joint gets the filter's estimate when it has one (else stays NaN).
+// With skip_stale (opt-in, CLI `--skip-repeats`), a row that repeats a row that moved
+// (repeated_pose, track.hpp) is taken for a runtime's stale answer, not a sample, as the
+// OpenXR layer takes it: it is not pushed, and is answered from the estimate at its time.
+// One repeat only: a second in a row is pushed, so a hand that stops is held, not
+// extrapolated, and a still hand's rows are samples as always. Off by default: a tracker
+// that holds its last pose before it loses a fast hand (the HoloLens 2 recordings) is
+// then extrapolated on, and a recording cannot say which it was (docs/FILTERS.md).
 // The filter is reset first.
-HandSeries filter_series(PoseFilter& filter, const HandSeries& series, double horizon_s);
+HandSeries filter_series(PoseFilter& filter, const HandSeries& series, double horizon_s, bool skip_stale = false);
 // The same for several horizons in one pass: one output per horizon, all from the same
 // filter states (row i's answers at t_i + h for each h).
-std::vector<HandSeries> filter_series(PoseFilter& filter, const HandSeries& series, std::span<const double> horizons_s);
+std::vector<HandSeries> filter_series(PoseFilter& filter, const HandSeries& series, std::span<const double> horizons_s,
+                                      bool skip_stale = false);
 // One hand through any method: a streaming filter made for it (filter_series above), or
 // a centred model's window mode (stgae.offline, stgae_offline.hpp). Throws as make_filter.
-HandSeries filter_series_with(const FilterConfig& config, const HandSeries& series, double horizon_s);
+HandSeries filter_series_with(const FilterConfig& config, const HandSeries& series, double horizon_s,
+                              bool skip_stale = false);
 
 }  // namespace hs

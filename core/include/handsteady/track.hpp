@@ -35,6 +35,14 @@ inline bool joint_finite(const Pose& p, int j) noexcept {
   return std::isfinite(p(j, 0)) && std::isfinite(p(j, 1)) && std::isfinite(p(j, 2));
 }
 bool any_joint_tracked(const Pose& p);
+// A tracker's answer repeated: the same joints tracked, none moved by more than
+// kRepeatToleranceM. A sample taken through an app's base space and back differs from the
+// runtime's own by float rounding (well under a micrometre); a moving or tracked hand
+// moves far more between two samples, and a perfectly still one is a repeat either way.
+// The OpenXR layer takes no repeat for a new sample; filter_series, when asked, none that
+// follows a row that moved (filters.hpp).
+inline constexpr double kRepeatToleranceM = 1e-5;
+bool repeated_pose(const Pose& a, const Pose& b) noexcept;
 // A joint with all three coordinates finite (what a filter takes for a tracked row).
 inline bool any_joint_finite(const Pose& p) noexcept {
   for (int j = 0; j < kJointCount; ++j)
