@@ -508,7 +508,8 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
       out->jointCount != XR_HAND_JOINT_COUNT_EXT)
     return res;
   try {
-    if (none_tracked_but_valid(out->jointLocations))
+    // Checked only until said: no joint scan per call once logged.
+    if (!g_logged_untracked.load(std::memory_order_relaxed) && none_tracked_but_valid(out->jointLocations))
       log_once(g_logged_untracked, LogLevel::Info,
                "the runtime reported an active hand with valid joints but none tracked (no "
                "XR_SPACE_LOCATION_POSITION_TRACKED_BIT): the layer filters tracked joints only, such answers pass "
