@@ -218,6 +218,38 @@ TEST_CASE("tracker filter: a world space announced to move restarts at the chang
   }
 }
 
+TEST_CASE("tracker filter: a hand from another source restarts at the first sample after the last one fed") {
+  // The layer's call while a controller drives the hand: source_changed(last sample fed).
+  // The next sample, however close to the old hand, starts a new run; until it has been
+  // processed, times after the last sample pass through, earlier ones are answered.
+  for (const Execution exec : {Execution::Inline, Execution::Lockstep}) {
+    CAPTURE(static_cast<int>(exec));
+    auto f = one_euro_filter(exec);
+    Answer out;
+    const auto feed = [&](XrTime t, const Pose& p) {
+      const bool ok = f->update(t, &p, t, out);
+      return exec == Execution::Inline ? ok : f->update(t, nullptr, t, out);
+    };
+    XrTime t = 10'000'000'000;
+    Pose p;
+    for (int i = 0; i <= 30; ++i, t += kPeriod) REQUIRE(feed(t, p = hand_at(0.001 * i)));
+    REQUIRE(out.weight == 1.0);
+    const XrTime last = t - kPeriod;
+    f->source_changed(last);
+    CHECK(f->update(last, nullptr, last, out));                 // the old hand's own times
+    CHECK_FALSE(f->update(last, nullptr, last + 1, out));      // after it: the runtime's
+    // Back 0.2 s later, 1 mm from where it was (a step the engine would bridge): restarted.
+    t = last + 18 * kPeriod;
+    p = hand_at(0.031);
+    REQUIRE(feed(t, p));
+    CHECK(out.weight == 0.0);
+    CHECK((out.pose - p).norm() < 1e-9);
+    t += kPeriod;
+    REQUIRE(feed(t, p = hand_at(0.032)));  // once: then the blend-in goes on
+    CHECK(out.weight > 0.0);
+  }
+}
+
 TEST_CASE("tracker filter: answers ahead only as far as the path reaches, older times from the history, and says how it answered") {
   auto f = one_euro_filter(Execution::Inline);
   Answer out;

@@ -17,6 +17,7 @@
 
 #include "handsteady/source_revision.hpp"
 #include "handsteady/track.hpp"
+#include "handsteady_xr/hand_tracking_data_source.hpp"
 #include "handsteady_xr/loader_negotiation.hpp"
 #include "handsteady_xr/raw_joints_ext.h"
 #include "handsteady_xr/xr_math.hpp"
@@ -72,7 +73,7 @@ void log_once(std::atomic<bool>& flag, LogLevel level, std::string_view msg) noe
 std::atomic<bool> g_logged_internal{false}, g_logged_world_space{false}, g_logged_locate_space{false},
     g_logged_world_locate{false}, g_logged_record{false}, g_logged_engine{false}, g_logged_space_garbage{false},
     g_logged_latest{false}, g_logged_time{false}, g_logged_repaired{false}, g_logged_garbage{false},
-    g_logged_recentre{false}, g_logged_untracked{false};
+    g_logged_recentre{false}, g_logged_untracked{false}, g_logged_controller{false};
 
 // ---------------------------------------------------------------- state
 
@@ -95,6 +96,7 @@ struct InstanceData {
   bool hand_tracking = false;  // the app enabled XR_EXT_hand_tracking
   bool raw_joints = false;     // the app enabled our XR_NOVENDOR_handsteady_raw_joints
   bool app_timespec = false;   // the app enabled XR_KHR_convert_timespec_time itself
+  bool data_source = false;    // the app enabled XR_EXT_hand_tracking_data_source
   LayerConfig config;
   std::unique_ptr<HandTuning> tuning;  // per-hand smoothing and horizon, live
 
@@ -130,6 +132,9 @@ struct TrackerData {
   std::atomic<TimeSemantics> semantics{TimeSemantics::History};  // probe's verdict, read without the lock
   std::atomic<XrTime> last_stamp{0};  // date of the newest sample fed (0: none yet)
   std::atomic<bool> passthrough{false};
+  // Created accepting a controller as the hand's source (XR_EXT_hand_tracking_data_source):
+  // each answer's source is asked for, and a controller's hand passes through.
+  bool controller_source = false;
   std::unique_ptr<Recording> recording;
   int serial = 0;
 };
@@ -204,6 +209,29 @@ void append_row(HandSeries& s, XrTime t, const Pose& p) {
 
 // ---------------------------------------------------------------- hand tracking hooks
 
+template <class T, XrStructureType Type>
+T* find_in_chain(void* next) {
+  for (auto* s = static_cast<XrBaseOutStructure*>(next); s; s = s->next)
+    if (s->type == Type) return reinterpret_cast<T*>(s);
+  return nullptr;
+}
+template <class T, XrStructureType Type>
+const T* find_in_chain(const void* next) {
+  for (auto* s = static_cast<const XrBaseInStructure*>(next); s; s = s->next)
+    if (s->type == Type) return reinterpret_cast<const T*>(s);
+  return nullptr;
+}
+
+// Whether a tracker's creation chain accepts a controller as the hand's source.
+bool accepts_controller(const void* create_next) noexcept {
+  const auto* ds =
+      find_in_chain<XrHandTrackingDataSourceInfoEXT, XR_TYPE_HAND_TRACKING_DATA_SOURCE_INFO_EXT>(create_next);
+  if (!ds || !ds->requestedDataSources) return false;
+  for (uint32_t i = 0; i < ds->requestedDataSourceCount; ++i)
+    if (ds->requestedDataSources[i] == XR_HAND_TRACKING_DATA_SOURCE_CONTROLLER_EXT) return true;
+  return false;
+}
+
 XRAPI_ATTR XrResult XRAPI_CALL CreateHandTrackerEXT(XrSession session, const XrHandTrackerCreateInfoEXT* info,
                                                     XrHandTrackerEXT* tracker) noexcept {
   const auto inst = find_shared(reg().sessions, session);
@@ -219,6 +247,7 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateHandTrackerEXT(XrSession session, const XrH
     t->handle = *tracker;
     t->session = session;
     t->hand = info->hand;
+    t->controller_source = inst->data_source && accepts_controller(info->next);
     for (auto& p : t->last_sample) p = untracked_pose();
     XrReferenceSpaceCreateInfo sci{};
     sci.type = XR_TYPE_REFERENCE_SPACE_CREATE_INFO;
@@ -298,19 +327,6 @@ bool none_tracked_but_valid(const XrHandJointLocationEXT* joints) noexcept {
   return valid;
 }
 
-template <class T, XrStructureType Type>
-T* find_in_chain(void* next) {
-  for (auto* s = static_cast<XrBaseOutStructure*>(next); s; s = s->next)
-    if (s->type == Type) return reinterpret_cast<T*>(s);
-  return nullptr;
-}
-template <class T, XrStructureType Type>
-const T* find_in_chain(const void* next) {
-  for (auto* s = static_cast<const XrBaseInStructure*>(next); s; s = s->next)
-    if (s->type == Type) return reinterpret_cast<const T*>(s);
-  return nullptr;
-}
-
 // The runtime's joints of tracker t in the layer's world space at `time` (NaN rows: not
 // tracked). Velocities into `vel` when given. False when the runtime fails.
 bool locate_world(const TrackerData& t, const XrHandJointsLocateInfoEXT& app_info, XrTime time, Pose& pose,
@@ -320,6 +336,10 @@ bool locate_world(const TrackerData& t, const XrHandJointsLocateInfoEXT& app_inf
                               vel ? vel->data() : nullptr};
   XrHandJointLocationsEXT wl{XR_TYPE_HAND_JOINT_LOCATIONS_EXT, vel ? &wv : nullptr, XR_FALSE, XR_HAND_JOINT_COUNT_EXT,
                              wj.data()};
+  // Where the hand may come from a controller, which source this answer is from.
+  XrHandTrackingDataSourceStateEXT source{XR_TYPE_HAND_TRACKING_DATA_SOURCE_STATE_EXT, wl.next, XR_FALSE,
+                                          XR_HAND_TRACKING_DATA_SOURCE_UNOBSTRUCTED_EXT};
+  if (t.controller_source) wl.next = &source;
   XrHandJointsLocateInfoEXT wi{XR_TYPE_HAND_JOINTS_LOCATE_INFO_EXT, app_info.next, t.world, time};
   const XrResult res = t.inst->LocateHandJointsEXT(t.handle, &wi, &wl);
   if (XR_FAILED(res)) {
@@ -328,8 +348,11 @@ bool locate_world(const TrackerData& t, const XrHandJointsLocateInfoEXT& app_inf
                          static_cast<int>(res)));
     return false;
   }
+  // A controller's hand is no sample of the tracked hand (when predicting, the time asked
+  // may be before the tracker took over again).
+  const bool tracked_hand = !(source.isActive && source.dataSource == XR_HAND_TRACKING_DATA_SOURCE_CONTROLLER_EXT);
   for (int j = 0; j < kJointCount; ++j) {
-    if (wl.isActive && position_tracked(wj[j])) pose.row(j) = xr::to_eigen(wj[j].pose.position).transpose();
+    if (wl.isActive && tracked_hand && position_tracked(wj[j])) pose.row(j) = xr::to_eigen(wj[j].pose.position).transpose();
     else pose.row(j).setConstant(std::numeric_limits<double>::quiet_NaN());
   }
   return true;
@@ -502,20 +525,49 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
     const auto inst = hand_instance();  // unknown here: unfiltered, the runtime judges the handle
     return inst ? inst->LocateHandJointsEXT(tracker, info, out) : XR_ERROR_HANDLE_INVALID;
   }
+  // Which source the runtime's hand comes from, where it may be a controller: from the
+  // app's own state structure, else from one the layer puts at the head of the chain for
+  // the call (the tracker accepts sources, so the runtime takes it), the app's chain
+  // restored after.
+  XrHandTrackingDataSourceStateEXT own{XR_TYPE_HAND_TRACKING_DATA_SOURCE_STATE_EXT, nullptr, XR_FALSE,
+                                       XR_HAND_TRACKING_DATA_SOURCE_UNOBSTRUCTED_EXT};
+  const XrHandTrackingDataSourceStateEXT* source = nullptr;
+  void* const app_next = out ? out->next : nullptr;
+  if (t->controller_source && out) {
+    source = find_in_chain<XrHandTrackingDataSourceStateEXT, XR_TYPE_HAND_TRACKING_DATA_SOURCE_STATE_EXT>(out->next);
+    if (!source) {
+      own.next = out->next;
+      out->next = &own;
+      source = &own;
+    }
+  }
   const XrResult res = t->inst->LocateHandJointsEXT(tracker, info, out);
+  if (source == &own) out->next = app_next;
   // The runtime validated the arguments; an inactive hand has nothing to filter.
   if (XR_FAILED(res) || t->passthrough.load(std::memory_order_relaxed) || !out->isActive ||
       out->jointCount != XR_HAND_JOINT_COUNT_EXT)
     return res;
   try {
-    // Checked only until said: no joint scan per call once logged.
-    if (!g_logged_untracked.load(std::memory_order_relaxed) && none_tracked_but_valid(out->jointLocations))
-      log_once(g_logged_untracked, LogLevel::Info,
-               "the runtime reported an active hand with valid joints but none tracked (no "
-               "XR_SPACE_LOCATION_POSITION_TRACKED_BIT): the layer filters tracked joints only, such answers pass "
-               "through unfiltered");
     JointMask garbage = garbage_joints(out->jointLocations);
-    filter_answer(*t, *info, *out, garbage);
+    // A controller's hand (its pose, fingers from buttons and touch) has no tracker noise
+    // to remove, and a network taught on tracked hands would only smooth its deliberate
+    // snaps: it passes through, and the hand back from the tracker is a new one.
+    if (source && source->isActive && source->dataSource == XR_HAND_TRACKING_DATA_SOURCE_CONTROLLER_EXT) {
+      log_once(g_logged_controller, LogLevel::Info,
+               "the runtime's hand comes from a controller (XR_EXT_hand_tracking_data_source): passed through "
+               "unfiltered; filtering restarts when it comes from hand tracking again");
+      const XrTime last = t->last_stamp.load(std::memory_order_relaxed);
+      for (const auto& f : t->filters)
+        if (f) f->source_changed(last);
+    } else {
+      // Checked only until said: no joint scan per call once logged.
+      if (!g_logged_untracked.load(std::memory_order_relaxed) && none_tracked_but_valid(out->jointLocations))
+        log_once(g_logged_untracked, LogLevel::Info,
+                 "the runtime reported an active hand with valid joints but none tracked (no "
+                 "XR_SPACE_LOCATION_POSITION_TRACKED_BIT): the layer filters tracked joints only, such answers pass "
+                 "through unfiltered");
+      filter_answer(*t, *info, *out, garbage);
+    }
     // Whatever the layer could not replace is never handed over as garbage.
     auto* vel = find_in_chain<XrHandJointVelocitiesEXT, XR_TYPE_HAND_JOINT_VELOCITIES_EXT>(out->next);
     if (vel && (vel->jointCount != XR_HAND_JOINT_COUNT_EXT || !vel->jointVelocities)) vel = nullptr;
@@ -739,6 +791,9 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateApiLayerInstance(const XrInstanceCreateInfo
       if (std::string_view(info->enabledExtensionNames[i]) == XR_EXT_HAND_TRACKING_EXTENSION_NAME) d->hand_tracking = true;
     d->raw_joints = raw_joints && d->hand_tracking;
     d->app_timespec = app_timespec;
+    for (uint32_t i = 0; i < info->enabledExtensionCount; ++i)
+      if (std::string_view(info->enabledExtensionNames[i]) == XR_EXT_HAND_TRACKING_DATA_SOURCE_EXTENSION_NAME)
+        d->data_source = true;
     if (have_timespec) load(*d, "xrConvertTimespecTimeToTimeKHR", d->ConvertTimespecTimeToTimeKHR);
     if (d->hand_tracking) {
       load(*d, "xrCreateHandTrackerEXT", d->CreateHandTrackerEXT);

@@ -178,6 +178,7 @@ void TrackerFilter::process(const Sample& s) noexcept {
   // clock); refusing such times keeps the path's knot times from overflowing.
   if (s.t <= 0 || s.t > std::numeric_limits<XrTime>::max() / 4) return;
   const XrTime change = space_change_.load(std::memory_order_acquire);
+  const XrTime source = source_change_.load(std::memory_order_acquire);
   if (!running_) {
     restart(s.t, false);
   } else {
@@ -187,6 +188,9 @@ void TrackerFilter::process(const Sample& s) noexcept {
       // times stay far behind the last sample has the clock been reset (or one far-future
       // time got in): then start over rather than ignore every later sample.
       if (static_cast<double>(-dt) <= reset_gap_ns_ || ++behind_ < 3) return;
+      restart(s.t, false);
+    } else if (source > 0 && s.t >= source && start_ < source) {
+      // The hand from another source (back from a controller): a new hand, not motion.
       restart(s.t, false);
     } else if (static_cast<double>(dt) > reset_gap_ns_ ||
                hand_jumped(centre_, gate.centre, static_cast<double>(dt) * 1e-9, limits_) ||
@@ -282,9 +286,12 @@ bool TrackerFilter::answer(XrTime q, const Sample* pending, Answer& out) const n
   const Published& p = *front_;
   out.corrected = false;
   if (!p.valid || q <= 0) return false;
-  // The published run is in the world space as it was before a change that applies at q.
+  // The published run is in the world space as it was before a change that applies at q,
+  // or of the hand from its source before another took over.
   const XrTime change = space_change_.load(std::memory_order_acquire);
   if (change > 0 && q >= change && p.start < change) return false;
+  const XrTime source = source_change_.load(std::memory_order_acquire);
+  if (source > 0 && q >= source && p.start < source) return false;
   if (q >= p.t0) {
     if (!p.path_at(q, max_ahead_ns_, out.pose)) return false;
     out.how = q == p.t0 ? TimeAnswer::Exact : TimeAnswer::Predicted;

@@ -89,6 +89,12 @@ class TrackerFilter {
   // rather than answer from the old space. Any thread; the newest announcement counts.
   void space_changed(XrTime change_time) noexcept { space_change_.store(change_time, std::memory_order_release); }
 
+  // The runtime's hand came from another source (a controller, XR_EXT_hand_tracking_data_source)
+  // after time `after`: the first sample newer than it restarts the engine as a new hand
+  // (another source places and shapes the hand its own way), and until it has, queries
+  // after it pass the runtime through. Any thread; the newest call counts.
+  void source_changed(XrTime after) noexcept { source_change_.store(after + 1, std::memory_order_release); }
+
   static constexpr XrTime kMinStep = 1'000'000;        // 1 ms: closer samples are repeats
   static constexpr int kHistory = 32;                  // past estimates kept for older queries
   static constexpr int kQueue = 8;                     // samples waiting for the worker
@@ -173,6 +179,7 @@ class TrackerFilter {
   std::unique_ptr<Published> front_;
 
   std::atomic<XrTime> space_change_{0};  // the world space's newest announced change (0: none)
+  std::atomic<XrTime> source_change_{0};  // samples from then on are from a new source (0: none)
 
   std::thread worker_;
 };

@@ -129,6 +129,17 @@ ShimConfig shim_config_from_env() {
     rc.yaw_rad = v[4] * std::numbers::pi / 180.0;
     c.recenter = rc;
   }
+  if (std::string s = env("HANDSTEADY_SHIM_CONTROLLER"); !s.empty()) {
+    std::vector<double> v;
+    for (const std::string& item : split_commas(s)) v.push_back(parse_number(item, "HANDSTEADY_SHIM_CONTROLLER"));
+    if (v.size() != 2 || !std::isfinite(v[0] + v[1]) || !(v[0] < v[1]))
+      throw std::invalid_argument("HANDSTEADY_SHIM_CONTROLLER: expected <from_track_s>,<to_track_s> with from < to, got '" +
+                                  s + "'");
+    ControllerSpan span;
+    span.from_s = v[0];
+    span.to_s = v[1];
+    c.controller = span;
+  }
   if (std::string s = env("HANDSTEADY_SHIM_FAULTS"); !s.empty()) {
     for (const std::string& item : split_commas(s)) {
       const auto colon = item.find(':');

@@ -44,6 +44,17 @@ struct Recenter {
   double yaw_rad = 0.0;
 };
 
+// A span of track time in which the hand comes from a controller
+// (XR_EXT_hand_tracking_data_source's XR_HAND_TRACKING_DATA_SOURCE_CONTROLLER_EXT): the
+// recording's pose without corruption, placed offset_m away (a controller's hand sits
+// where the controller puts it), as a runtime that switches sources when the user picks
+// up a controller.
+struct ControllerSpan {
+  double from_s = 0.0, to_s = 0.0;
+  Eigen::Vector3d offset_m = Eigen::Vector3d(0.0, -0.03, 0.02);
+  bool contains(double t) const { return t >= from_s && t < to_s; }
+};
+
 struct ShimConfig {
   std::string track_path;        // HANDSTEADY_SHIM_TRACK (empty: hands never active)
   std::string corrupt_preset;    // HANDSTEADY_SHIM_CORRUPT=<preset>:<seed>
@@ -60,6 +71,7 @@ struct ShimConfig {
   bool head_motion = false;      // HANDSTEADY_SHIM_HEAD_MOTION=1
   bool space_velocity = true;    // HANDSTEADY_SHIM_SPACE_VELOCITY=0: xrLocateSpace answers no XrSpaceVelocity
   std::optional<Recenter> recenter;  // HANDSTEADY_SHIM_RECENTER=<track_s>,<dx_m>,<dy_m>,<dz_m>,<yaw_deg>
+  std::optional<ControllerSpan> controller;  // HANDSTEADY_SHIM_CONTROLLER=<from_track_s>,<to_track_s>
   FaultRates faults;             // HANDSTEADY_SHIM_FAULTS=nan:<p>,huge:<p>,quat:<p>,origin:<p>,space:<p>,velocity:<p>,radius:<p>,collapse:<p>,untracked:<p>
 };
 

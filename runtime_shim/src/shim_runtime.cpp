@@ -13,6 +13,7 @@
 #include "handsteady/skeleton.hpp"
 #include "handsteady/track.hpp"
 #include "handsteady/track_ops.hpp"
+#include "handsteady_xr/hand_tracking_data_source.hpp"
 #include "handsteady_xr/loader_negotiation.hpp"
 #include "handsteady_xr/xr_math.hpp"
 #include "shim_config.hpp"
@@ -55,15 +56,20 @@ struct SpaceData {
 struct TrackerData {
   XrSession session;
   XrHandEXT hand;
+  // XR_EXT_hand_tracking_data_source: created with XrHandTrackingDataSourceInfoEXT, and
+  // the sources it accepts (without the info: hand tracking only).
+  bool source_info = false;
+  bool unobstructed = true, controller = false;
 };
 
 struct Runtime {
   std::mutex mu;
   bool live = false;
   XrInstance instance = XR_NULL_HANDLE;
-  bool ext_hand = false, ext_headless = false, ext_timespec = false;
+  bool ext_hand = false, ext_headless = false, ext_timespec = false, ext_data_source = false;
   ShimConfig cfg;
   std::array<HandSeries, 2> hands;
+  std::array<HandSeries, 2> controller_hands;  // the recording uncorrupted, where a controller places it
   TrackClock clock{0.0, kSimEpochNs};  // XrTime -> track time (t0 at epoch)
   XrTime sim_now = kSimEpochNs;
   XrTime mono_at_tick = 0;     // sim clock: CLOCK_MONOTONIC when sim_now last advanced
@@ -195,8 +201,9 @@ struct ExtensionInfo {
   const char* name;
   uint32_t version;
 };
-constexpr std::array<ExtensionInfo, 3> kExtensions = {{
+constexpr std::array<ExtensionInfo, 4> kExtensions = {{
     {XR_EXT_HAND_TRACKING_EXTENSION_NAME, XR_EXT_hand_tracking_SPEC_VERSION},
+    {XR_EXT_HAND_TRACKING_DATA_SOURCE_EXTENSION_NAME, XR_EXT_hand_tracking_data_source_SPEC_VERSION},
     {XR_MND_HEADLESS_EXTENSION_NAME, XR_MND_headless_SPEC_VERSION},
     {XR_KHR_CONVERT_TIMESPEC_TIME_EXTENSION_NAME, XR_KHR_convert_timespec_time_SPEC_VERSION},
 }};
@@ -228,10 +235,11 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateInstance(const XrInstanceCreateInfo* info, 
   Runtime& r = rt();
   std::lock_guard lock(r.mu);
   if (r.live) return XR_ERROR_LIMIT_REACHED;
-  bool hand = false, headless = false, timespec = false;
+  bool hand = false, headless = false, timespec = false, data_source = false;
   for (uint32_t i = 0; i < info->enabledExtensionCount; ++i) {
     const std::string_view name = info->enabledExtensionNames[i];
     if (name == XR_EXT_HAND_TRACKING_EXTENSION_NAME) hand = true;
+    else if (name == XR_EXT_HAND_TRACKING_DATA_SOURCE_EXTENSION_NAME) data_source = true;
     else if (name == XR_MND_HEADLESS_EXTENSION_NAME) headless = true;
     else if (name == XR_KHR_CONVERT_TIMESPEC_TIME_EXTENSION_NAME) timespec = true;
     else return XR_ERROR_EXTENSION_NOT_PRESENT;
@@ -239,8 +247,16 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateInstance(const XrInstanceCreateInfo* info, 
   try {
     r.cfg = shim_config_from_env();
     r.hands = {};
+    r.controller_hands = {};
     if (!r.cfg.track_path.empty()) {
       Track track = read_track_csv(r.cfg.track_path);
+      if (r.cfg.controller) {
+        Track placed = track;
+        for (TrackRow& row : placed.rows)
+          for (int j = 0; j < kJointCount; ++j)
+            if (joint_tracked(row.pos, j)) row.pos.row(j) += r.cfg.controller->offset_m.transpose();
+        r.controller_hands = {hand_series(placed, Hand::Left), hand_series(placed, Hand::Right)};
+      }
       if (!r.cfg.corrupt_preset.empty())
         track = corrupt_track(track, corruption_preset(r.cfg.corrupt_preset), r.cfg.corrupt_seed);
       r.hands = {hand_series(track, Hand::Left), hand_series(track, Hand::Right)};
@@ -261,6 +277,7 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateInstance(const XrInstanceCreateInfo* info, 
   r.ext_hand = hand;
   r.ext_headless = headless;
   r.ext_timespec = timespec;
+  r.ext_data_source = data_source;
   r.sessions.clear();
   r.spaces.clear();
   r.trackers.clear();
@@ -284,6 +301,7 @@ XRAPI_ATTR XrResult XRAPI_CALL DestroyInstance(XrInstance instance) {
   r.trackers.clear();
   r.events.clear();
   r.hands = {};
+  r.controller_hands = {};
   return XR_SUCCESS;
 }
 
@@ -641,8 +659,26 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateHandTrackerEXT(XrSession session, const XrH
   if (!info || !tracker || info->type != XR_TYPE_HAND_TRACKER_CREATE_INFO_EXT) return XR_ERROR_VALIDATION_FAILURE;
   if (info->hand != XR_HAND_LEFT_EXT && info->hand != XR_HAND_RIGHT_EXT) return XR_ERROR_VALIDATION_FAILURE;
   if (info->handJointSet != XR_HAND_JOINT_SET_DEFAULT_EXT) return XR_ERROR_VALIDATION_FAILURE;
+  TrackerData data{session, info->hand};
+  if (r.ext_data_source)
+    for (auto* c = static_cast<const XrBaseInStructure*>(info->next); c; c = c->next) {
+      if (c->type != XR_TYPE_HAND_TRACKING_DATA_SOURCE_INFO_EXT) continue;
+      // The extension's valid usage: at least one source, each once, each one it defines.
+      const auto* ds = reinterpret_cast<const XrHandTrackingDataSourceInfoEXT*>(c);
+      if (ds->requestedDataSourceCount == 0 || !ds->requestedDataSources) return XR_ERROR_VALIDATION_FAILURE;
+      data.source_info = true;
+      data.unobstructed = data.controller = false;
+      for (uint32_t i = 0; i < ds->requestedDataSourceCount; ++i) {
+        const XrHandTrackingDataSourceEXT v = ds->requestedDataSources[i];
+        bool* accepted = v == XR_HAND_TRACKING_DATA_SOURCE_UNOBSTRUCTED_EXT ? &data.unobstructed
+                         : v == XR_HAND_TRACKING_DATA_SOURCE_CONTROLLER_EXT ? &data.controller
+                                                                             : nullptr;
+        if (!accepted || *accepted) return XR_ERROR_VALIDATION_FAILURE;  // unknown or repeated
+        *accepted = true;
+      }
+    }
   const XrHandTrackerEXT t = handle_of<XrHandTrackerEXT>(r.next_handle++);
-  r.trackers[id_of(t)] = TrackerData{session, info->hand};
+  r.trackers[id_of(t)] = data;
   *tracker = t;
   return XR_SUCCESS;
 }
@@ -667,14 +703,28 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
   if (base == r.spaces.end()) return XR_ERROR_HANDLE_INVALID;
   if (info->time <= 0) return XR_ERROR_TIME_INVALID;
   XrHandJointVelocitiesEXT* vel = nullptr;
-  for (auto* s = static_cast<XrBaseOutStructure*>(out->next); s; s = s->next)
+  XrHandTrackingDataSourceStateEXT* source = nullptr;
+  for (auto* s = static_cast<XrBaseOutStructure*>(out->next); s; s = s->next) {
     if (s->type == XR_TYPE_HAND_JOINT_VELOCITIES_EXT) vel = reinterpret_cast<XrHandJointVelocitiesEXT*>(s);
+    if (s->type == XR_TYPE_HAND_TRACKING_DATA_SOURCE_STATE_EXT && r.ext_data_source)
+      source = reinterpret_cast<XrHandTrackingDataSourceStateEXT*>(s);
+  }
   if (vel && (vel->jointCount != XR_HAND_JOINT_COUNT_EXT || !vel->jointVelocities)) return XR_ERROR_VALIDATION_FAILURE;
+  // The extension: the state only for a tracker created with the sources it accepts.
+  if (source && !tr->second.source_info) return XR_ERROR_VALIDATION_FAILURE;
 
   const XrHandEXT hand = tr->second.hand;
-  const auto& series = r.hands[hand == XR_HAND_LEFT_EXT ? 0 : 1];
   const XrTime now = now_locked(r);
-  const Pose world = replayed_hand(series, r.cfg, r.clock, info->time, now);
+  // The source at the asked time, and whether the tracker accepts it (else no hand).
+  const bool from_controller = r.cfg.controller && r.cfg.controller->contains(track_time(r, info->time));
+  const bool accepted = from_controller ? tr->second.controller : tr->second.unobstructed;
+  const auto& series = (from_controller ? r.controller_hands : r.hands)[hand == XR_HAND_LEFT_EXT ? 0 : 1];
+  const Pose world = accepted ? replayed_hand(series, r.cfg, r.clock, info->time, now) : untracked_pose();
+  if (source) {
+    source->isActive = accepted ? XR_TRUE : XR_FALSE;
+    source->dataSource =
+        from_controller ? XR_HAND_TRACKING_DATA_SOURCE_CONTROLLER_EXT : XR_HAND_TRACKING_DATA_SOURCE_UNOBSTRUCTED_EXT;
+  }
   if (!any_joint_tracked(world)) {
     out->isActive = XR_FALSE;
     for (uint32_t j = 0; j < out->jointCount; ++j) out->jointLocations[j].locationFlags = 0;

@@ -14,6 +14,7 @@
 
 #include "handsteady/synth.hpp"
 #include "handsteady/track_ops.hpp"
+#include "handsteady_xr/hand_tracking_data_source.hpp"
 #include "handsteady_xr/raw_joints_ext.h"
 #include "handsteady_xr/xr_math.hpp"
 #include "test_support.hpp"
@@ -384,6 +385,134 @@ TEST_CASE("an inferred hand (every joint valid, none tracked) passes through unc
   const std::string text = hs::test::slurp(log);
   INFO(text);
   const std::string said = "valid joints but none tracked";
+  const size_t at = text.find(said);
+  CHECK(at != std::string::npos);
+  CHECK(text.find(said, at + 1) == std::string::npos);  // once
+}
+
+// A tracker of the app's own, created accepting both sources of
+// XR_EXT_hand_tracking_data_source, located with or without the source state chained.
+struct SourcedJoints {
+  Joints joints;
+  XrHandTrackingDataSourceStateEXT state{XR_TYPE_HAND_TRACKING_DATA_SOURCE_STATE_EXT, nullptr, XR_FALSE,
+                                         XR_HAND_TRACKING_DATA_SOURCE_UNOBSTRUCTED_EXT};
+};
+SourcedJoints locate_sourced(PFN_xrLocateHandJointsEXT fn, XrHandTrackerEXT tracker, XrSpace base, XrTime time,
+                             bool chain_state) {
+  SourcedJoints r;
+  XrHandJointLocationsEXT out{XR_TYPE_HAND_JOINT_LOCATIONS_EXT, chain_state ? &r.state : nullptr, XR_FALSE,
+                              XR_HAND_JOINT_COUNT_EXT, r.joints.loc.data()};
+  XrHandJointsLocateInfoEXT info{XR_TYPE_HAND_JOINTS_LOCATE_INFO_EXT, nullptr, base, time};
+  r.joints.result = fn(tracker, &info, &out);
+  r.joints.active = out.isActive;
+  CHECK(out.next == (chain_state ? static_cast<void*>(&r.state) : nullptr));  // the app's chain as it gave it
+  return r;
+}
+
+TEST_CASE("a hand from a controller (XR_EXT_hand_tracking_data_source) passes through, and filtering restarts when "
+          "hand tracking is back") {
+  // From 1.0 to 1.25 s the runtime's hands come from a controller (placed 3.6 cm from the
+  // tracked hand, as a controller puts it): the app gets them untouched, whether it chains
+  // the source state (right hand) or not (left: the layer asks for it). Back from hand
+  // tracking, the first answers are the runtime's (a new hand, no bridge from the
+  // controller's), and the layer filters again. Trackers created without the sources
+  // keep working (the runtime fails a call that chains the state to them).
+  const TrackFiles f = make_tracks("controller", 3.0);
+  constexpr double kFrom = 1.0, kTo = 1.25;
+  const auto log = f.dir / "controller_stderr.txt";
+  {
+    test::StderrToFile to_log(log);
+    each_engine_and_mode(
+        f,
+        [&] {
+          set_env("HANDSTEADY_SHIM_CONTROLLER", std::to_string(f.t0 + kFrom) + "," + std::to_string(f.t0 + kTo));
+          set_env("HANDSTEADY_LOG", "info");
+        },
+        [&](const std::string& engine, const std::string& mode) {
+          App app(true, {XR_NOVENDOR_HANDSTEADY_RAW_JOINTS_EXTENSION_NAME, XR_EXT_HAND_TRACKING_DATA_SOURCE_EXTENSION_NAME});
+          PFN_xrVoidFunction raw_fn = nullptr;
+          REQUIRE(xrGetInstanceProcAddr(app.instance, "xrLocateRawHandJointsNOVENDOR", &raw_fn) == XR_SUCCESS);
+          const auto raw = reinterpret_cast<PFN_xrLocateHandJointsEXT>(raw_fn);
+          std::array<XrHandTrackingDataSourceEXT, 2> sources = {XR_HAND_TRACKING_DATA_SOURCE_UNOBSTRUCTED_EXT,
+                                                                XR_HAND_TRACKING_DATA_SOURCE_CONTROLLER_EXT};
+          XrHandTrackingDataSourceInfoEXT dsi{XR_TYPE_HAND_TRACKING_DATA_SOURCE_INFO_EXT, nullptr, 2, sources.data()};
+          std::array<XrHandTrackerEXT, 2> sourced{};
+          for (XrHandEXT hand : {XR_HAND_LEFT_EXT, XR_HAND_RIGHT_EXT}) {
+            XrHandTrackerCreateInfoEXT hci{XR_TYPE_HAND_TRACKER_CREATE_INFO_EXT, &dsi, hand, XR_HAND_JOINT_SET_DEFAULT_EXT};
+            REQUIRE(app.create_tracker(app.session, &hci, &sourced[hand - 1]) == XR_SUCCESS);
+          }
+          // The runtime holds apps (and the layer) to the extension's rules: a source named
+          // twice is refused, and so is the state chained for a tracker made without sources.
+          std::array<XrHandTrackingDataSourceEXT, 2> twice = {XR_HAND_TRACKING_DATA_SOURCE_CONTROLLER_EXT,
+                                                              XR_HAND_TRACKING_DATA_SOURCE_CONTROLLER_EXT};
+          XrHandTrackingDataSourceInfoEXT bad{XR_TYPE_HAND_TRACKING_DATA_SOURCE_INFO_EXT, nullptr, 2, twice.data()};
+          XrHandTrackerCreateInfoEXT bad_hci{XR_TYPE_HAND_TRACKER_CREATE_INFO_EXT, &bad, XR_HAND_LEFT_EXT,
+                                             XR_HAND_JOINT_SET_DEFAULT_EXT};
+          XrHandTrackerEXT refused = XR_NULL_HANDLE;
+          CHECK(app.create_tracker(app.session, &bad_hci, &refused) == XR_ERROR_VALIDATION_FAILURE);
+          CHECK(locate_sourced(raw, app.trackers[0], app.local, app.frame(), true).joints.result ==
+                XR_ERROR_VALIDATION_FAILURE);
+          double controller_worst = 0.0, back_worst = 0.0;
+          double before = 0.0, before_raw = 0.0, settled = 0.0, settled_raw = 0.0;
+          long controller_answers = 0, reported = 0, back_answers = 0, default_inactive = 0;
+          for (int i = 0; i < 260; ++i) {
+            const XrTime T = app.frame();
+            const double t = track_time(f, T) - f.t0;
+            const bool controller = t >= kFrom && t < kTo;
+            for (XrHandEXT hand : {XR_HAND_LEFT_EXT, XR_HAND_RIGHT_EXT}) {
+              const bool chain = hand == XR_HAND_RIGHT_EXT;
+              const SourcedJoints j = locate_sourced(app.locate_joints, sourced[hand - 1], app.local, T, chain);
+              const SourcedJoints r = locate_sourced(raw, sourced[hand - 1], app.local, T, true);
+              REQUIRE(j.joints.result == XR_SUCCESS);
+              REQUIRE(r.joints.result == XR_SUCCESS);
+              INFO("track time " << t);
+              REQUIRE(j.joints.active);
+              CHECK(r.state.dataSource == (controller ? XR_HAND_TRACKING_DATA_SOURCE_CONTROLLER_EXT
+                                                      : XR_HAND_TRACKING_DATA_SOURCE_UNOBSTRUCTED_EXT));
+              if (chain) reported += j.state.isActive && j.state.dataSource == r.state.dataSource;
+              // The app's own trackers accept hand tracking only: no hand while the controller has it.
+              const Joints d = app.locate(hand, app.local, T);
+              REQUIRE(d.result == XR_SUCCESS);
+              if (controller) default_inactive += !d.active;
+              const double dev = max_deviation(j.joints, r.joints);
+              if (controller) {
+                controller_worst = std::max(controller_worst, dev);
+                ++controller_answers;
+              } else if (t >= kTo && t < kTo + 0.03) {
+                back_worst = std::max(back_worst, dev);  // the first answers back (2-3 frames)
+                ++back_answers;
+              }
+              const Pose truth = interpolate_pose(f.clean_series[hand - 1], track_time(f, T));
+              if (t >= kFrom - 0.5 && t < kFrom) {
+                before += mean_error(j.joints, truth);
+                before_raw += mean_error(r.joints, truth);
+              } else if (t >= kTo + 0.8) {
+                settled += mean_error(j.joints, truth);
+                settled_raw += mean_error(r.joints, truth);
+              }
+            }
+          }
+          MESSAGE(engine << " " << mode << ": controller answers off the runtime's by " << controller_worst * 1e3
+                         << " mm at most; the first answers back by " << back_worst * 1e3
+                         << " mm; the layer's error over the runtime's " << before / before_raw << " before, "
+                         << settled / settled_raw << " after");
+          CHECK(controller_answers > 40);
+          CHECK(controller_worst == 0.0);                  // the controller's hand untouched
+          CHECK(reported > 200);                           // the app's own state filled through the layer
+          CHECK(default_inactive == controller_answers);   // a tracker not accepting controllers: no hand
+          CHECK(back_answers >= 4);
+          CHECK(back_worst < 1e-3);                        // starts again from the runtime's joints
+          if (mode == "denoise") {
+            CHECK(before < 0.9 * before_raw);    // it filtered before
+            CHECK(settled < 0.9 * settled_raw);  // and filters again
+          }
+          for (XrHandTrackerEXT s : sourced) CHECK(app.destroy_tracker(s) == XR_SUCCESS);
+          app.shutdown();
+        });
+  }
+  const std::string text = hs::test::slurp(log);
+  INFO(text);
+  const std::string said = "comes from a controller";
   const size_t at = text.find(said);
   CHECK(at != std::string::npos);
   CHECK(text.find(said, at + 1) == std::string::npos);  // once
