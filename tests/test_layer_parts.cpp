@@ -40,6 +40,26 @@ std::unique_ptr<TrackerFilter> one_euro_filter(Execution exec) {
 
 constexpr XrTime kPeriod = 11'111'111;
 
+// A One Euro tracker filter fed a slow ramp for 31 periods, past its blend-in. feed()
+// hands over a sample and leaves in `out` the answer at its time from the state that
+// includes it (lockstep answers a sample's own call from the state before it).
+struct RunningFilter {
+  explicit RunningFilter(Execution e) : exec(e), f(one_euro_filter(e)) {
+    for (int i = 0; i <= 30; ++i, t += kPeriod) REQUIRE(feed(t, p = hand_at(0.001 * i)));
+    REQUIRE(out.weight == 1.0);
+    t -= kPeriod;  // the newest sample's time
+  }
+  bool feed(XrTime at, const Pose& pose) {
+    const bool ok = f->update(at, &pose, at, out);
+    return exec == Execution::Inline ? ok : f->update(at, nullptr, at, out);
+  }
+  Execution exec;
+  std::unique_ptr<TrackerFilter> f;
+  Answer out;
+  XrTime t = 10'000'000'000;
+  Pose p;
+};
+
 // A runtime's answer of `raw`: every joint valid and tracked, identity orientations, 1 cm radii.
 std::array<XrHandJointLocationEXT, kJointCount> tracked_joints(const Pose& raw) {
   std::array<XrHandJointLocationEXT, kJointCount> joints{};
@@ -176,19 +196,12 @@ TEST_CASE("tracker filter: first answer is the runtime's (weight 0), blends in, 
 TEST_CASE("tracker filter: a world space announced to move restarts at the change, and passes through until then") {
   for (const Execution exec : {Execution::Inline, Execution::Lockstep}) {
     CAPTURE(static_cast<int>(exec));
-    auto f = one_euro_filter(exec);
-    Answer out;
-    // A sample, then the answer at its time from the state that includes it (lockstep
-    // answers a sample's own call from the state before it).
-    const auto feed = [&](XrTime t, const Pose& p) {
-      const bool ok = f->update(t, &p, t, out);
-      return exec == Execution::Inline ? ok : f->update(t, nullptr, t, out);
-    };
-    XrTime t = 10'000'000'000;
-    Pose p;
-    for (int i = 0; i <= 30; ++i, t += kPeriod) REQUIRE(feed(t, p = hand_at(0.001 * i)));
-    REQUIRE(out.weight == 1.0);
-    t -= kPeriod;
+    RunningFilter run(exec);
+    auto& f = run.f;
+    Answer& out = run.out;
+    XrTime& t = run.t;
+    Pose& p = run.p;
+    const auto feed = [&](XrTime at, const Pose& pose) { return run.feed(at, pose); };
     const XrTime change = t + kPeriod / 2;
     f->space_changed(change);
     // Before the change nothing is different; asked at the change before a sample from the
@@ -224,29 +237,18 @@ TEST_CASE("tracker filter: a hand from another source restarts at the first samp
   // processed, times after the last sample pass through, earlier ones are answered.
   for (const Execution exec : {Execution::Inline, Execution::Lockstep}) {
     CAPTURE(static_cast<int>(exec));
-    auto f = one_euro_filter(exec);
-    Answer out;
-    const auto feed = [&](XrTime t, const Pose& p) {
-      const bool ok = f->update(t, &p, t, out);
-      return exec == Execution::Inline ? ok : f->update(t, nullptr, t, out);
-    };
-    XrTime t = 10'000'000'000;
-    Pose p;
-    for (int i = 0; i <= 30; ++i, t += kPeriod) REQUIRE(feed(t, p = hand_at(0.001 * i)));
-    REQUIRE(out.weight == 1.0);
-    const XrTime last = t - kPeriod;
-    f->source_changed(last);
-    CHECK(f->update(last, nullptr, last, out));                 // the old hand's own times
-    CHECK_FALSE(f->update(last, nullptr, last + 1, out));      // after it: the runtime's
+    RunningFilter run(exec);
+    const XrTime last = run.t;
+    run.f->source_changed(last);
+    CHECK(run.f->update(last, nullptr, last, run.out));             // the old hand's own times
+    CHECK_FALSE(run.f->update(last, nullptr, last + 1, run.out));  // after it: the runtime's
     // Back 0.2 s later, 1 mm from where it was (a step the engine would bridge): restarted.
-    t = last + 18 * kPeriod;
-    p = hand_at(0.031);
-    REQUIRE(feed(t, p));
-    CHECK(out.weight == 0.0);
-    CHECK((out.pose - p).norm() < 1e-9);
-    t += kPeriod;
-    REQUIRE(feed(t, p = hand_at(0.032)));  // once: then the blend-in goes on
-    CHECK(out.weight > 0.0);
+    const Pose back = hand_at(0.031);
+    REQUIRE(run.feed(last + 18 * kPeriod, back));
+    CHECK(run.out.weight == 0.0);
+    CHECK((run.out.pose - back).norm() < 1e-9);
+    REQUIRE(run.feed(last + 19 * kPeriod, hand_at(0.032)));  // once: then the blend-in goes on
+    CHECK(run.out.weight > 0.0);
   }
 }
 

@@ -129,6 +129,15 @@ Track still_hands(double seconds) {
   return t;
 }
 
+// The layer's stderr, captured in `log`, says `said` exactly once.
+void check_logged_once(const std::filesystem::path& log, const std::string& said) {
+  const std::string text = hs::test::slurp(log);
+  INFO(text);
+  const size_t at = text.find(said);
+  CHECK(at != std::string::npos);
+  CHECK(text.find(said, at + 1) == std::string::npos);
+}
+
 double max_deviation(const Joints& a, const Joints& b) {
   double m = 0.0;
   for (int k = 0; k < kJointCount; ++k)
@@ -382,12 +391,7 @@ TEST_CASE("an inferred hand (every joint valid, none tracked) passes through unc
       app.shutdown();
     });
   }
-  const std::string text = hs::test::slurp(log);
-  INFO(text);
-  const std::string said = "valid joints but none tracked";
-  const size_t at = text.find(said);
-  CHECK(at != std::string::npos);
-  CHECK(text.find(said, at + 1) == std::string::npos);  // once
+  check_logged_once(log, "valid joints but none tracked");
 }
 
 // A tracker of the app's own, created accepting both sources of
@@ -510,12 +514,7 @@ TEST_CASE("a hand from a controller (XR_EXT_hand_tracking_data_source) passes th
           app.shutdown();
         });
   }
-  const std::string text = hs::test::slurp(log);
-  INFO(text);
-  const std::string said = "comes from a controller";
-  const size_t at = text.find(said);
-  CHECK(at != std::string::npos);
-  CHECK(text.find(said, at + 1) == std::string::npos);  // once
+  check_logged_once(log, "comes from a controller");
 }
 
 TEST_CASE("a recentred LOCAL (reference space change pending): answers in STAGE show no transient") {

@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -18,6 +19,7 @@
 #include <mutex>
 #include <random>
 #include <span>
+#include <string_view>
 #include <thread>
 
 namespace hs::bench {
@@ -97,6 +99,8 @@ bool is_mrtk_csv(const fs::path& f) {
 }
 
 // What benchmark/ may hold, one test set each (docs/BENCHMARK.md "Data and the split").
+// The data folder's entries the benchmark reads (the sets below, then benchmark/).
+inline constexpr std::array<std::string_view, 5> kDataFolders = {"fpha", "manipnet", "leap", "hololens2", "benchmark"};
 inline constexpr const char* kExtraKinds =
     "a track CSV, a HoloLens 2 (MRTK) CSV, a ManipNet BVH, or a folder of track CSVs or of FPHA takes";
 
@@ -210,7 +214,7 @@ std::vector<Dataset> load_datasets(const fs::path& data_dir, bool quick, std::ve
     std::vector<std::string> others;
     for (const auto& e : fs::directory_iterator(data_dir)) {
       const std::string n = e.path().filename().string();
-      if (n != "fpha" && n != "manipnet" && n != "leap" && n != "hololens2" && n != "benchmark" && !n.starts_with("README"))
+      if (std::find(kDataFolders.begin(), kDataFolders.end(), n) == kDataFolders.end() && !n.starts_with("README"))
         others.push_back(n);
     }
     std::sort(others.begin(), others.end());
