@@ -468,6 +468,54 @@ TEST_CASE("repair: a garbage joint takes the plausible joint fewest bones away, 
   CHECK((at(inter) - truth(inter)).norm() < 0.04);
 }
 
+TEST_CASE("forearm: the elbow moves with the wrist's correction and is never garbage") {
+  // Ultraleap's forearm set: the hand's 26 joints, then the elbow (index 26).
+  const auto hand = tracked_joints(hand_at(0.1));
+  std::array<XrHandJointLocationEXT, kJointCount + 1> joints{};
+  std::copy(hand.begin(), hand.end(), joints.begin());
+  XrHandJointLocationEXT& elbow = joints[kJointCount];
+  const XrHandJointLocationEXT& wrist = joints[XR_HAND_JOINT_WRIST_EXT];
+  const auto reset_elbow = [&] {
+    elbow = wrist;
+    elbow.pose.position = xr::to_xr(Eigen::Vector3d(xr::to_eigen(wrist.pose.position) + Eigen::Vector3d(0.0, -0.18, 0.18)));
+    elbow.radius = 0.035f;
+  };
+  reset_elbow();
+  std::array<XrHandJointVelocityEXT, kJointCount + 1> vel{};
+  // The layer moved the wrist by 4 mm: the elbow by as much, still tracked.
+  const XrVector3f before = wrist.pose.position;
+  joints[XR_HAND_JOINT_WRIST_EXT].pose.position.x += 0.004f;
+  const Eigen::Vector3d expected = xr::to_eigen(elbow.pose.position) + Eigen::Vector3d(0.004, 0.0, 0.0);
+  CHECK(rewrite_forearm(before, joints.data(), kJointCount + 1, vel.data()) == 0);
+  CHECK((xr::to_eigen(elbow.pose.position) - expected).norm() < 1e-6);
+  CHECK((elbow.locationFlags & XR_SPACE_LOCATION_POSITION_TRACKED_BIT) != 0);
+  // The runtime's wrist was garbage (1e30, since repaired): no correction is carried over.
+  reset_elbow();
+  const Eigen::Vector3d kept = xr::to_eigen(elbow.pose.position);
+  CHECK(rewrite_forearm(XrVector3f{1e30f, 0.0f, 0.0f}, joints.data(), kJointCount + 1, nullptr) == 0);
+  CHECK((xr::to_eigen(elbow.pose.position) - kept).norm() < 1e-6);
+  // Garbage flagged valid: NaN, 1e30, 2 m from the wrist -> the wrist's position, not tracked;
+  // an unusable orientation and radius, and a velocity of 1e6 m/s.
+  for (const float bad : {std::numeric_limits<float>::quiet_NaN(), 1e30f, 2.0f}) {
+    CAPTURE(bad);
+    reset_elbow();
+    elbow.pose.position.y = bad;
+    CHECK(rewrite_forearm(wrist.pose.position, joints.data(), kJointCount + 1, nullptr) == 1);
+    CHECK((xr::to_eigen(elbow.pose.position) - xr::to_eigen(wrist.pose.position)).norm() == 0.0);
+    CHECK((elbow.locationFlags & XR_SPACE_LOCATION_POSITION_VALID_BIT) != 0);
+    CHECK((elbow.locationFlags & XR_SPACE_LOCATION_POSITION_TRACKED_BIT) == 0);
+  }
+  reset_elbow();
+  elbow.pose.orientation = {0, 0, 0, 0};
+  elbow.radius = -1.0f;
+  vel[kJointCount].velocityFlags = XR_SPACE_VELOCITY_LINEAR_VALID_BIT;
+  vel[kJointCount].linearVelocity = {1e6f, 0.0f, 0.0f};
+  CHECK(rewrite_forearm(wrist.pose.position, joints.data(), kJointCount + 1, vel.data()) == 3);
+  CHECK(xr::usable(elbow.pose.orientation));
+  CHECK(elbow.radius == wrist.radius);
+  CHECK(vel[kJointCount].velocityFlags == 0);
+}
+
 TEST_CASE("repair: a radius no hand has, where the position is valid, becomes a neighbour's, 0 stays") {
   auto joints = tracked_joints(hand_at(0.0));
   for (int j = 0; j < kJointCount; ++j)

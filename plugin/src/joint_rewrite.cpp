@@ -22,6 +22,22 @@ constexpr float kDefaultTipRadius = 0.008f;
 
 bool radius_usable(float r) noexcept { return r >= 0.0f && r < kMaxRadius; }  // false for NaN too
 
+// A velocity no joint has (non-finite, over 50 m/s or 1000 rad/s) loses its valid bit.
+int repair_velocity(XrHandJointVelocityEXT& v) noexcept {
+  int changed = 0;
+  if ((v.velocityFlags & XR_SPACE_VELOCITY_LINEAR_VALID_BIT) &&
+      (!xr::finite(v.linearVelocity) || !(xr::to_eigen(v.linearVelocity).norm() < kMaxSpeed))) {
+    v.velocityFlags &= ~static_cast<XrSpaceVelocityFlags>(XR_SPACE_VELOCITY_LINEAR_VALID_BIT);
+    ++changed;
+  }
+  if ((v.velocityFlags & XR_SPACE_VELOCITY_ANGULAR_VALID_BIT) &&
+      (!xr::finite(v.angularVelocity) || !(xr::to_eigen(v.angularVelocity).norm() < kMaxAngularSpeed))) {
+    v.velocityFlags &= ~static_cast<XrSpaceVelocityFlags>(XR_SPACE_VELOCITY_ANGULAR_VALID_BIT);
+    ++changed;
+  }
+  return changed;
+}
+
 // Component-wise median of the usable rows of `p` (NaN when none).
 Eigen::Vector3d median_centre(const Pose& p) {
   Pose copy = p;
@@ -103,17 +119,48 @@ int repair_garbage(const JointMask& garbage, XrHandJointLocationEXT* joints, XrH
       ++changed;
     }
     if (!velocities) continue;
-    XrHandJointVelocityEXT& v = velocities[j];
-    if ((v.velocityFlags & XR_SPACE_VELOCITY_LINEAR_VALID_BIT) &&
-        (!xr::finite(v.linearVelocity) || !(xr::to_eigen(v.linearVelocity).norm() < kMaxSpeed))) {
-      v.velocityFlags &= ~static_cast<XrSpaceVelocityFlags>(XR_SPACE_VELOCITY_LINEAR_VALID_BIT);
+    changed += repair_velocity(velocities[j]);
+  }
+  return changed;
+}
+
+int rewrite_forearm(const XrVector3f& wrist_before, XrHandJointLocationEXT* joints, uint32_t count,
+                    XrHandJointVelocityEXT* velocities) noexcept {
+  constexpr double kMaxFromWristM = 1.0;  // a forearm is about 25-30 cm
+  const XrHandJointLocationEXT& wrist = joints[XR_HAND_JOINT_WRIST_EXT];
+  const bool wrist_valid =
+      (wrist.locationFlags & XR_SPACE_LOCATION_POSITION_VALID_BIT) != 0 && xr::finite(wrist.pose.position);
+  const Eigen::Vector3d w = xr::to_eigen(wrist.pose.position);
+  // The wrist's correction (none where the runtime's wrist was garbage: no correction is a metre).
+  Eigen::Vector3d shift = w - xr::to_eigen(wrist_before);
+  if (!wrist_valid || !shift.allFinite() || !(shift.norm() < kMaxFromWristM)) shift.setZero();
+  int changed = 0;
+  for (uint32_t j = kJointCount; j < count; ++j) {
+    XrHandJointLocationEXT& loc = joints[j];
+    if (loc.locationFlags & XR_SPACE_LOCATION_POSITION_VALID_BIT) {
+      const Eigen::Vector3d p = xr::to_eigen(loc.pose.position) + shift;
+      const bool garbage = !p.allFinite() || !(p.norm() < 1e3) || (wrist_valid && !((p - w).norm() < kMaxFromWristM));
+      if (!garbage) {
+        loc.pose.position = xr::to_xr(p);
+      } else {
+        loc.pose.position = wrist_valid ? wrist.pose.position : XrVector3f{0.0f, 0.0f, 0.0f};
+        loc.locationFlags &= ~static_cast<XrSpaceLocationFlags>(
+            wrist_valid ? XR_SPACE_LOCATION_POSITION_TRACKED_BIT
+                        : XR_SPACE_LOCATION_POSITION_TRACKED_BIT | XR_SPACE_LOCATION_POSITION_VALID_BIT);
+        ++changed;
+      }
+    }
+    if (!xr::usable(loc.pose.orientation)) {
+      loc.pose.orientation = xr::usable(wrist.pose.orientation) ? wrist.pose.orientation : XrQuaternionf{0, 0, 0, 1};
+      loc.locationFlags &= ~static_cast<XrSpaceLocationFlags>(XR_SPACE_LOCATION_ORIENTATION_TRACKED_BIT);
       ++changed;
     }
-    if ((v.velocityFlags & XR_SPACE_VELOCITY_ANGULAR_VALID_BIT) &&
-        (!xr::finite(v.angularVelocity) || !(xr::to_eigen(v.angularVelocity).norm() < kMaxAngularSpeed))) {
-      v.velocityFlags &= ~static_cast<XrSpaceVelocityFlags>(XR_SPACE_VELOCITY_ANGULAR_VALID_BIT);
+    if ((loc.locationFlags & XR_SPACE_LOCATION_POSITION_VALID_BIT) && !radius_usable(loc.radius)) {
+      loc.radius = radius_usable(wrist.radius) ? wrist.radius : kDefaultRadius;
       ++changed;
     }
+    if (!velocities) continue;
+    changed += repair_velocity(velocities[j]);
   }
   return changed;
 }

@@ -54,4 +54,14 @@ RewriteStats rewrite_joints(const Answer& answer, double smoothing, const xr::Ri
 // a non-finite or impossible velocity loses its valid bit. Returns the number of repairs.
 int repair_garbage(const JointMask& garbage, XrHandJointLocationEXT* joints, XrHandJointVelocityEXT* velocities) noexcept;
 
+// The joints a joint set adds after the hand's 26 (Ultraleap's elbow, joints[26..count)),
+// once the hand's are rewritten and repaired: each moves with the wrist's correction
+// (wrist_before: the runtime's wrist), so that the forearm keeps its length and direction,
+// and is never garbage: a position no forearm has (non-finite, beyond 1 km, a metre or
+// more from the wrist) becomes the wrist's (not tracked; not valid without a valid
+// wrist), an unusable orientation or radius the wrist's, an impossible velocity loses
+// its valid bit. Returns the number of repairs.
+int rewrite_forearm(const XrVector3f& wrist_before, XrHandJointLocationEXT* joints, uint32_t count,
+                    XrHandJointVelocityEXT* velocities) noexcept;
+
 }  // namespace hs::layer

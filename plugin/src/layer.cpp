@@ -20,6 +20,7 @@
 #include "handsteady_xr/hand_tracking_data_source.hpp"
 #include "handsteady_xr/loader_negotiation.hpp"
 #include "handsteady_xr/raw_joints_ext.h"
+#include "handsteady_xr/ultraleap_forearm.hpp"
 #include "handsteady_xr/xr_math.hpp"
 #include "hand_tuning.hpp"
 #include "joint_rewrite.hpp"
@@ -50,6 +51,8 @@ namespace hs::layer {
 namespace {
 
 constexpr const char* kLayerName = "XR_APILAYER_NOVENDOR_handsteady";
+// The most joints a joint set the layer filters has (Ultraleap's forearm set: the hand's 26 and the elbow).
+constexpr uint32_t kMaxJoints = XR_HAND_FOREARM_JOINT_COUNT_ULTRALEAP;
 #ifndef HS_LAYER_ISA
 #define HS_LAYER_ISA "baseline"  // the compiler's default instruction set
 #endif
@@ -73,7 +76,8 @@ void log_once(std::atomic<bool>& flag, LogLevel level, std::string_view msg) noe
 std::atomic<bool> g_logged_internal{false}, g_logged_world_space{false}, g_logged_locate_space{false},
     g_logged_world_locate{false}, g_logged_record{false}, g_logged_engine{false}, g_logged_space_garbage{false},
     g_logged_latest{false}, g_logged_time{false}, g_logged_repaired{false}, g_logged_garbage{false},
-    g_logged_recentre{false}, g_logged_untracked{false}, g_logged_controller{false};
+    g_logged_recentre{false}, g_logged_untracked{false}, g_logged_controller{false},
+    g_logged_joint_set{false};
 
 // ---------------------------------------------------------------- state
 
@@ -121,6 +125,7 @@ struct TrackerData {
   XrHandTrackerEXT handle = XR_NULL_HANDLE;
   XrSession session = XR_NULL_HANDLE;
   XrHandEXT hand = XR_HAND_RIGHT_EXT;
+  uint32_t joint_count = XR_HAND_JOINT_COUNT_EXT;  // its joint set's: the hand's 26, then any more (the elbow)
   XrSpace world = XR_NULL_HANDLE;  // the layer's world-fixed space (LOCAL)
   // One state per joint motion range (XR_EXT_hand_joints_motion_range).
   std::array<std::unique_ptr<TrackerFilter>, 2> filters;
@@ -248,6 +253,14 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateHandTrackerEXT(XrSession session, const XrH
     t->session = session;
     t->hand = info->hand;
     t->controller_source = inst->data_source && accepts_controller(info->next);
+    if (info->handJointSet == XR_HAND_JOINT_SET_HAND_WITH_FOREARM_ULTRALEAP) {
+      t->joint_count = XR_HAND_FOREARM_JOINT_COUNT_ULTRALEAP;
+    } else if (info->handJointSet != XR_HAND_JOINT_SET_DEFAULT_EXT) {
+      t->passthrough = true;
+      log_once(g_logged_joint_set, LogLevel::Warn,
+               fmt::format("hand joint set {} is unknown to the layer: its joints pass through unfiltered",
+                           static_cast<int>(info->handJointSet)));
+    }
     for (auto& p : t->last_sample) p = untracked_pose();
     XrReferenceSpaceCreateInfo sci{};
     sci.type = XR_TYPE_REFERENCE_SPACE_CREATE_INFO;
@@ -330,12 +343,10 @@ bool none_tracked_but_valid(const XrHandJointLocationEXT* joints) noexcept {
 // The runtime's joints of tracker t in the layer's world space at `time` (NaN rows: not
 // tracked). Velocities into `vel` when given. False when the runtime fails.
 bool locate_world(const TrackerData& t, const XrHandJointsLocateInfoEXT& app_info, XrTime time, Pose& pose,
-                  std::array<XrHandJointVelocityEXT, XR_HAND_JOINT_COUNT_EXT>* vel) noexcept {
-  std::array<XrHandJointLocationEXT, XR_HAND_JOINT_COUNT_EXT> wj{};
-  XrHandJointVelocitiesEXT wv{XR_TYPE_HAND_JOINT_VELOCITIES_EXT, nullptr, XR_HAND_JOINT_COUNT_EXT,
-                              vel ? vel->data() : nullptr};
-  XrHandJointLocationsEXT wl{XR_TYPE_HAND_JOINT_LOCATIONS_EXT, vel ? &wv : nullptr, XR_FALSE, XR_HAND_JOINT_COUNT_EXT,
-                             wj.data()};
+                  std::array<XrHandJointVelocityEXT, kMaxJoints>* vel) noexcept {
+  std::array<XrHandJointLocationEXT, kMaxJoints> wj{};
+  XrHandJointVelocitiesEXT wv{XR_TYPE_HAND_JOINT_VELOCITIES_EXT, nullptr, t.joint_count, vel ? vel->data() : nullptr};
+  XrHandJointLocationsEXT wl{XR_TYPE_HAND_JOINT_LOCATIONS_EXT, vel ? &wv : nullptr, XR_FALSE, t.joint_count, wj.data()};
   // Where the hand may come from a controller, which source this answer is from.
   XrHandTrackingDataSourceStateEXT source{XR_TYPE_HAND_TRACKING_DATA_SOURCE_STATE_EXT, wl.next, XR_FALSE,
                                           XR_HAND_TRACKING_DATA_SOURCE_UNOBSTRUCTED_EXT};
@@ -418,7 +429,7 @@ void filter_answer(TrackerData& t, const XrHandJointsLocateInfoEXT& info, XrHand
   TrackerFilter* filter = t.filters[state_index].get();
   if (!filter) return;
   auto* app_vel = find_in_chain<XrHandJointVelocitiesEXT, XR_TYPE_HAND_JOINT_VELOCITIES_EXT>(out.next);
-  if (app_vel && (app_vel->jointCount != XR_HAND_JOINT_COUNT_EXT || !app_vel->jointVelocities)) app_vel = nullptr;
+  if (app_vel && (app_vel->jointCount != t.joint_count || !app_vel->jointVelocities)) app_vel = nullptr;
   const int hand = t.hand == XR_HAND_LEFT_EXT ? 0 : 1;
   const bool predict = inst.config.mode == Mode::Predict;
   const XrTime horizon = predict ? inst.tuning->horizon_ns(hand) : 0;
@@ -441,7 +452,7 @@ void filter_answer(TrackerData& t, const XrHandJointsLocateInfoEXT& info, XrHand
   xr::Rigid base_from_world;
   BaseMotion motion;
   bool based = false, base_tried = false;
-  std::array<XrHandJointVelocityEXT, XR_HAND_JOINT_COUNT_EXT> wvj{};
+  std::array<XrHandJointVelocityEXT, kMaxJoints> wvj{};
   Pose observed;
   bool have_sample = false;
   if (same_time && !probe) {
@@ -545,9 +556,10 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
   if (source == &own) out->next = app_next;
   // The runtime validated the arguments; an inactive hand has nothing to filter.
   if (XR_FAILED(res) || t->passthrough.load(std::memory_order_relaxed) || !out->isActive ||
-      out->jointCount != XR_HAND_JOINT_COUNT_EXT)
+      out->jointCount != t->joint_count)
     return res;
   try {
+    const XrVector3f wrist_before = out->jointLocations[XR_HAND_JOINT_WRIST_EXT].pose.position;
     JointMask garbage = garbage_joints(out->jointLocations);
     // A controller's hand (its pose, fingers from buttons and touch) has no tracker noise
     // to remove, and a network taught on tracked hands would only smooth its deliberate
@@ -570,8 +582,12 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
     }
     // Whatever the layer could not replace is never handed over as garbage.
     auto* vel = find_in_chain<XrHandJointVelocitiesEXT, XR_TYPE_HAND_JOINT_VELOCITIES_EXT>(out->next);
-    if (vel && (vel->jointCount != XR_HAND_JOINT_COUNT_EXT || !vel->jointVelocities)) vel = nullptr;
-    if (repair_garbage(garbage, out->jointLocations, vel ? vel->jointVelocities : nullptr) > 0)
+    if (vel && (vel->jointCount != t->joint_count || !vel->jointVelocities)) vel = nullptr;
+    int repaired = repair_garbage(garbage, out->jointLocations, vel ? vel->jointVelocities : nullptr);
+    // A set's joints beyond the hand (the elbow) follow the wrist.
+    if (t->joint_count > XR_HAND_JOINT_COUNT_EXT)
+      repaired += rewrite_forearm(wrist_before, out->jointLocations, t->joint_count, vel ? vel->jointVelocities : nullptr);
+    if (repaired > 0)
       log_once(g_logged_garbage, LogLevel::Warn,
                "the runtime reported impossible joint data as valid: positions replaced by a neighbour's (not "
                "tracked), radii by a neighbour's, velocities marked invalid");

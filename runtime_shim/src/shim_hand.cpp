@@ -34,6 +34,10 @@ Pose replayed_hand(const HandSeries& series, const ShimConfig& cfg, const TrackC
   return interpolate_pose(series, clock.at(t));
 }
 
+Eigen::Vector3d elbow_position(const Pose& filled) {
+  return Eigen::Vector3d(filled.row(idx(Joint::Wrist)).transpose()) + Eigen::Vector3d(0.0, -0.18, 0.18);
+}
+
 Pose with_valid_positions(const Pose& p) {
   Pose out = p;
   for (int j = 0; j < kJointCount; ++j) {

@@ -37,6 +37,12 @@ std::array<Eigen::Matrix3d, kJointCount> joint_frames(const Pose& p, bool left);
 
 inline float joint_radius(int j) { return is_tip(j) ? 0.008f : 0.01f; }
 
+// XR_ULTRALEAP_hand_tracking_forearm's elbow, for a pose with every joint placed: 25 cm
+// below and behind the wrist, moving with it (a forearm taken from the hand's own axis
+// would swing centimetres with every millimetre of the replayed track's noise).
+Eigen::Vector3d elbow_position(const Pose& filled);
+constexpr float kElbowRadiusM = 0.035f;
+
 // Deterministic uniform [0, 1) from (time, a, b, salt): faults repeat for repeated queries.
 double fault_draw(XrTime t, int a, int b, uint64_t salt);
 

@@ -15,6 +15,7 @@
 #include "handsteady/track_ops.hpp"
 #include "handsteady_xr/hand_tracking_data_source.hpp"
 #include "handsteady_xr/loader_negotiation.hpp"
+#include "handsteady_xr/ultraleap_forearm.hpp"
 #include "handsteady_xr/xr_math.hpp"
 #include "shim_config.hpp"
 #include "shim_hand.hpp"
@@ -41,6 +42,7 @@ namespace {
 using xr::Rigid;
 constexpr XrTime kSimEpochNs = 1'000'000'000;  // XrTime of the track's first row in sim mode
 constexpr uint64_t kHandTrackingSystem = 1;
+constexpr int kMaxJoints = XR_HAND_FOREARM_JOINT_COUNT_ULTRALEAP;  // the forearm set: the hand's 26, then the elbow
 
 struct SessionData {
   XrSessionState state = XR_SESSION_STATE_UNKNOWN;
@@ -56,6 +58,7 @@ struct SpaceData {
 struct TrackerData {
   XrSession session;
   XrHandEXT hand;
+  uint32_t joint_count = XR_HAND_JOINT_COUNT_EXT;  // XR_ULTRALEAP_hand_tracking_forearm's set: 27
   // XR_EXT_hand_tracking_data_source: created with XrHandTrackingDataSourceInfoEXT, and
   // the sources it accepts (without the info: hand tracking only).
   bool source_info = false;
@@ -66,7 +69,7 @@ struct Runtime {
   std::mutex mu;
   bool live = false;
   XrInstance instance = XR_NULL_HANDLE;
-  bool ext_hand = false, ext_headless = false, ext_timespec = false, ext_data_source = false;
+  bool ext_hand = false, ext_headless = false, ext_timespec = false, ext_data_source = false, ext_forearm = false;
   ShimConfig cfg;
   std::array<HandSeries, 2> hands;
   std::array<HandSeries, 2> controller_hands;  // the recording uncorrupted, where a controller places it
@@ -201,9 +204,10 @@ struct ExtensionInfo {
   const char* name;
   uint32_t version;
 };
-constexpr std::array<ExtensionInfo, 4> kExtensions = {{
+constexpr std::array<ExtensionInfo, 5> kExtensions = {{
     {XR_EXT_HAND_TRACKING_EXTENSION_NAME, XR_EXT_hand_tracking_SPEC_VERSION},
     {XR_EXT_HAND_TRACKING_DATA_SOURCE_EXTENSION_NAME, XR_EXT_hand_tracking_data_source_SPEC_VERSION},
+    {XR_ULTRALEAP_HAND_TRACKING_FOREARM_EXTENSION_NAME, XR_ULTRALEAP_hand_tracking_forearm_SPEC_VERSION},
     {XR_MND_HEADLESS_EXTENSION_NAME, XR_MND_headless_SPEC_VERSION},
     {XR_KHR_CONVERT_TIMESPEC_TIME_EXTENSION_NAME, XR_KHR_convert_timespec_time_SPEC_VERSION},
 }};
@@ -235,11 +239,12 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateInstance(const XrInstanceCreateInfo* info, 
   Runtime& r = rt();
   std::lock_guard lock(r.mu);
   if (r.live) return XR_ERROR_LIMIT_REACHED;
-  bool hand = false, headless = false, timespec = false, data_source = false;
+  bool hand = false, headless = false, timespec = false, data_source = false, forearm = false;
   for (uint32_t i = 0; i < info->enabledExtensionCount; ++i) {
     const std::string_view name = info->enabledExtensionNames[i];
     if (name == XR_EXT_HAND_TRACKING_EXTENSION_NAME) hand = true;
     else if (name == XR_EXT_HAND_TRACKING_DATA_SOURCE_EXTENSION_NAME) data_source = true;
+    else if (name == XR_ULTRALEAP_HAND_TRACKING_FOREARM_EXTENSION_NAME) forearm = true;
     else if (name == XR_MND_HEADLESS_EXTENSION_NAME) headless = true;
     else if (name == XR_KHR_CONVERT_TIMESPEC_TIME_EXTENSION_NAME) timespec = true;
     else return XR_ERROR_EXTENSION_NOT_PRESENT;
@@ -278,6 +283,7 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateInstance(const XrInstanceCreateInfo* info, 
   r.ext_headless = headless;
   r.ext_timespec = timespec;
   r.ext_data_source = data_source;
+  r.ext_forearm = forearm;
   r.sessions.clear();
   r.spaces.clear();
   r.trackers.clear();
@@ -658,8 +664,10 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateHandTrackerEXT(XrSession session, const XrH
   if (!find_session(r, session)) return XR_ERROR_HANDLE_INVALID;
   if (!info || !tracker || info->type != XR_TYPE_HAND_TRACKER_CREATE_INFO_EXT) return XR_ERROR_VALIDATION_FAILURE;
   if (info->hand != XR_HAND_LEFT_EXT && info->hand != XR_HAND_RIGHT_EXT) return XR_ERROR_VALIDATION_FAILURE;
-  if (info->handJointSet != XR_HAND_JOINT_SET_DEFAULT_EXT) return XR_ERROR_VALIDATION_FAILURE;
+  const bool forearm = r.ext_forearm && info->handJointSet == XR_HAND_JOINT_SET_HAND_WITH_FOREARM_ULTRALEAP;
+  if (info->handJointSet != XR_HAND_JOINT_SET_DEFAULT_EXT && !forearm) return XR_ERROR_VALIDATION_FAILURE;
   TrackerData data{session, info->hand};
+  if (forearm) data.joint_count = XR_HAND_FOREARM_JOINT_COUNT_ULTRALEAP;
   if (r.ext_data_source)
     for (auto* c = static_cast<const XrBaseInStructure*>(info->next); c; c = c->next) {
       if (c->type != XR_TYPE_HAND_TRACKING_DATA_SOURCE_INFO_EXT) continue;
@@ -698,7 +706,8 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
   if (!info || info->type != XR_TYPE_HAND_JOINTS_LOCATE_INFO_EXT || !out ||
       out->type != XR_TYPE_HAND_JOINT_LOCATIONS_EXT || !out->jointLocations)
     return XR_ERROR_VALIDATION_FAILURE;
-  if (out->jointCount != XR_HAND_JOINT_COUNT_EXT) return XR_ERROR_VALIDATION_FAILURE;
+  const uint32_t count = tr->second.joint_count;
+  if (out->jointCount != count) return XR_ERROR_VALIDATION_FAILURE;
   const auto base = r.spaces.find(id_of(info->baseSpace));
   if (base == r.spaces.end()) return XR_ERROR_HANDLE_INVALID;
   if (info->time <= 0) return XR_ERROR_TIME_INVALID;
@@ -709,7 +718,7 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
     if (s->type == XR_TYPE_HAND_TRACKING_DATA_SOURCE_STATE_EXT && r.ext_data_source)
       source = reinterpret_cast<XrHandTrackingDataSourceStateEXT*>(s);
   }
-  if (vel && (vel->jointCount != XR_HAND_JOINT_COUNT_EXT || !vel->jointVelocities)) return XR_ERROR_VALIDATION_FAILURE;
+  if (vel && (vel->jointCount != count || !vel->jointVelocities)) return XR_ERROR_VALIDATION_FAILURE;
   // The extension: the state only for a tracker created with the sources it accepts.
   if (source && !tr->second.source_info) return XR_ERROR_VALIDATION_FAILURE;
 
@@ -732,9 +741,10 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
       for (uint32_t j = 0; j < vel->jointCount; ++j) vel->jointVelocities[j].velocityFlags = 0;
     return XR_SUCCESS;
   }
-  // Joint poses in the base space at time t: positions, and frames from the positions.
-  auto joints_in_base = [&](XrTime t, const Pose& w, std::array<Eigen::Vector3d, kJointCount>& pos,
-                            std::array<Eigen::Matrix3d, kJointCount>& rot) {
+  // Joint poses in the base space at time t: positions, and frames from the positions
+  // (the elbow: the wrist's frame).
+  auto joints_in_base = [&](XrTime t, const Pose& w, std::array<Eigen::Vector3d, kMaxJoints>& pos,
+                            std::array<Eigen::Matrix3d, kMaxJoints>& rot) {
     const Rigid world_to_base = space_in_world(r, base->second, track_time(r, t)).inverse();
     const Pose filled = with_valid_positions(w);
     const auto frames = joint_frames(filled, hand == XR_HAND_LEFT_EXT);
@@ -742,35 +752,39 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
       pos[j] = world_to_base * Eigen::Vector3d(filled.row(j).transpose());
       rot[j] = world_to_base.linear() * frames[j];
     }
+    pos[kJointCount] = world_to_base * elbow_position(filled);
+    rot[kJointCount] = rot[idx(Joint::Wrist)];
   };
-  std::array<Eigen::Vector3d, kJointCount> pos;
-  std::array<Eigen::Matrix3d, kJointCount> rot;
+  // A joint of the set: the elbow is tracked with the wrist.
+  const auto set_joint_tracked = [](const Pose& w, int j) { return joint_tracked(w, j < kJointCount ? j : idx(Joint::Wrist)); };
+  std::array<Eigen::Vector3d, kMaxJoints> pos;
+  std::array<Eigen::Matrix3d, kMaxJoints> rot;
   joints_in_base(info->time, world, pos, rot);
   out->isActive = XR_TRUE;
-  for (int j = 0; j < kJointCount; ++j) {
+  for (int j = 0; j < static_cast<int>(count); ++j) {
     XrHandJointLocationEXT& loc = out->jointLocations[j];
     loc.pose.position = xr::to_xr(pos[j]);
     loc.pose.orientation = xr::to_xr(Eigen::Quaterniond(rot[j]).normalized());
-    loc.radius = joint_radius(j);
+    loc.radius = j < kJointCount ? joint_radius(j) : kElbowRadiusM;
     loc.locationFlags = XR_SPACE_LOCATION_ORIENTATION_VALID_BIT | XR_SPACE_LOCATION_POSITION_VALID_BIT;
-    if (joint_tracked(world, j))
+    if (set_joint_tracked(world, j))
       loc.locationFlags |= XR_SPACE_LOCATION_ORIENTATION_TRACKED_BIT | XR_SPACE_LOCATION_POSITION_TRACKED_BIT;
   }
   if (vel) {
     // Central differences over +-2 ms of the joints relative to the base space.
     constexpr XrTime h = 2'000'000;
-    std::array<Eigen::Vector3d, kJointCount> p0, p1;
-    std::array<Eigen::Matrix3d, kJointCount> r0, r1;
+    std::array<Eigen::Vector3d, kMaxJoints> p0, p1;
+    std::array<Eigen::Matrix3d, kMaxJoints> r0, r1;
     // The later time saturates near INT64_MAX (apps may ask any time).
     const XrTime t0 = info->time - h;
     const XrTime t1 = info->time > std::numeric_limits<XrTime>::max() - h ? info->time : info->time + h;
     const Pose w0 = replayed_hand(series, r.cfg, r.clock, t0, now), w1 = replayed_hand(series, r.cfg, r.clock, t1, now);
     joints_in_base(t0, w0, p0, r0);
     joints_in_base(t1, w1, p1, r1);
-    for (int j = 0; j < kJointCount; ++j) {
+    for (int j = 0; j < static_cast<int>(count); ++j) {
       XrHandJointVelocityEXT& v = vel->jointVelocities[j];
       v.velocityFlags = 0;
-      if (!joint_tracked(w0, j) || !joint_tracked(w1, j)) continue;
+      if (!set_joint_tracked(w0, j) || !set_joint_tracked(w1, j)) continue;
       const double dt = 2.0 * static_cast<double>(h) * 1e-9;
       v.linearVelocity = xr::to_xr(Eigen::Vector3d((p1[j] - p0[j]) / dt));
       const Eigen::AngleAxisd d(Eigen::Matrix3d(r1[j] * r0[j].transpose()));

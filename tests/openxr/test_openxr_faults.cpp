@@ -16,6 +16,7 @@
 #include "handsteady/track_ops.hpp"
 #include "handsteady_xr/hand_tracking_data_source.hpp"
 #include "handsteady_xr/raw_joints_ext.h"
+#include "handsteady_xr/ultraleap_forearm.hpp"
 #include "handsteady_xr/xr_math.hpp"
 #include "test_support.hpp"
 #include "xr_test_app.hpp"
@@ -515,6 +516,86 @@ TEST_CASE("a hand from a controller (XR_EXT_hand_tracking_data_source) passes th
         });
   }
   check_logged_once(log, "comes from a controller");
+}
+
+// A tracker of XR_ULTRALEAP_hand_tracking_forearm's joint set: the hand's 26 joints and the elbow.
+struct ForearmJoints {
+  XrResult result = XR_ERROR_RUNTIME_FAILURE;
+  XrBool32 active = XR_FALSE;
+  std::array<XrHandJointLocationEXT, XR_HAND_FOREARM_JOINT_COUNT_ULTRALEAP> loc{};
+  std::array<XrHandJointVelocityEXT, XR_HAND_FOREARM_JOINT_COUNT_ULTRALEAP> vel{};
+  Eigen::Vector3d at(int j) const { return xr::to_eigen(loc[static_cast<size_t>(j)].pose.position); }
+};
+ForearmJoints locate_forearm(PFN_xrLocateHandJointsEXT fn, XrHandTrackerEXT tracker, XrSpace base, XrTime time) {
+  ForearmJoints r;
+  XrHandJointVelocitiesEXT vel{XR_TYPE_HAND_JOINT_VELOCITIES_EXT, nullptr, XR_HAND_FOREARM_JOINT_COUNT_ULTRALEAP,
+                               r.vel.data()};
+  XrHandJointLocationsEXT out{XR_TYPE_HAND_JOINT_LOCATIONS_EXT, &vel, XR_FALSE, XR_HAND_FOREARM_JOINT_COUNT_ULTRALEAP,
+                              r.loc.data()};
+  XrHandJointsLocateInfoEXT info{XR_TYPE_HAND_JOINTS_LOCATE_INFO_EXT, nullptr, base, time};
+  r.result = fn(tracker, &info, &out);
+  r.active = out.isActive;
+  return r;
+}
+
+TEST_CASE("a tracker of Ultraleap's forearm joint set (27 joints) is filtered as any, its elbow moved with the wrist") {
+  // Before, the layer passed every answer of a joint set other than the default through
+  // unfiltered, and said nothing. The hand's 26 joints of the set are the default set's.
+  const TrackFiles f = make_tracks("forearm", 2.0);
+  each_engine_and_mode(f, [] { set_env("HANDSTEADY_SHIM_HEAD_MOTION", "1"); }, [&](const std::string& engine, const std::string& mode) {
+    App app(true, {XR_NOVENDOR_HANDSTEADY_RAW_JOINTS_EXTENSION_NAME, XR_ULTRALEAP_HAND_TRACKING_FOREARM_EXTENSION_NAME});
+    PFN_xrVoidFunction raw_fn = nullptr;
+    REQUIRE(xrGetInstanceProcAddr(app.instance, "xrLocateRawHandJointsNOVENDOR", &raw_fn) == XR_SUCCESS);
+    const auto raw = reinterpret_cast<PFN_xrLocateHandJointsEXT>(raw_fn);
+    std::array<XrHandTrackerEXT, 2> forearm{};
+    for (XrHandEXT hand : {XR_HAND_LEFT_EXT, XR_HAND_RIGHT_EXT}) {
+      XrHandTrackerCreateInfoEXT hci{XR_TYPE_HAND_TRACKER_CREATE_INFO_EXT, nullptr, hand,
+                                     XR_HAND_JOINT_SET_HAND_WITH_FOREARM_ULTRALEAP};
+      REQUIRE(app.create_tracker(app.session, &hci, &forearm[hand - 1]) == XR_SUCCESS);
+    }
+    double layer_err = 0.0, raw_err = 0.0, elbow_off = 0.0, wrist_moved = 0.0;
+    long answers = 0, flags_differ = 0, bad_velocities = 0;
+    for (int i = 0; i < 170; ++i) {
+      const XrTime T = app.frame();
+      for (XrHandEXT hand : {XR_HAND_LEFT_EXT, XR_HAND_RIGHT_EXT}) {
+        const ForearmJoints j = locate_forearm(app.locate_joints, forearm[hand - 1], app.view, T);
+        const ForearmJoints r = locate_forearm(raw, forearm[hand - 1], app.view, T);
+        REQUIRE(j.result == XR_SUCCESS);
+        REQUIRE(r.result == XR_SUCCESS);
+        REQUIRE(j.active);
+        constexpr int kElbow = XR_HAND_FOREARM_JOINT_ELBOW_ULTRALEAP, kWrist = XR_HAND_JOINT_WRIST_EXT;
+        flags_differ += j.loc[kElbow].locationFlags != r.loc[kElbow].locationFlags;
+        // The elbow moves as the wrist was moved: the forearm keeps its length and direction.
+        elbow_off = std::max(elbow_off, ((j.at(kElbow) - r.at(kElbow)) - (j.at(kWrist) - r.at(kWrist))).norm());
+        wrist_moved = std::max(wrist_moved, (j.at(kWrist) - r.at(kWrist)).norm());
+        for (const auto& v : j.vel)
+          bad_velocities += (v.velocityFlags & XR_SPACE_VELOCITY_LINEAR_VALID_BIT) && !(xr::to_eigen(v.linearVelocity).norm() < 10.0);
+        if (i < 30) continue;
+        // The hand's joints against the truth, in LOCAL (the answers are in the moving VIEW).
+        const XrPosef local_from_view = app.space_pose(app.view, app.local, T);
+        const Pose truth = interpolate_pose(f.clean_series[hand - 1], track_time(f, T));
+        Joints hand_j, hand_r;
+        std::copy_n(j.loc.begin(), kJointCount, hand_j.loc.begin());
+        std::copy_n(r.loc.begin(), kJointCount, hand_r.loc.begin());
+        long n = 0, n_raw = 0;
+        accumulate_error(hand_j, local_from_view, truth, layer_err, n);
+        accumulate_error(hand_r, local_from_view, truth, raw_err, n_raw);
+        ++answers;
+      }
+    }
+    MESSAGE(engine << " " << mode << ": the hand's error over the runtime's " << layer_err / raw_err
+                   << "; the wrist moved up to " << wrist_moved * 1e3 << " mm, the elbow off its move by "
+                   << elbow_off * 1e3 << " mm");
+    CHECK(answers > 250);
+    if (mode == "denoise") CHECK(layer_err < 0.9 * raw_err);  // filtered
+    else CHECK(layer_err != raw_err);                          // the layer's answer, not the runtime's
+    CHECK(wrist_moved > 1e-3);
+    CHECK(elbow_off < 1e-5);
+    CHECK(flags_differ == 0);
+    CHECK(bad_velocities == 0);
+    for (XrHandTrackerEXT t : forearm) CHECK(app.destroy_tracker(t) == XR_SUCCESS);
+    app.shutdown();
+  });
 }
 
 TEST_CASE("a recentred LOCAL (reference space change pending): answers in STAGE show no transient") {
