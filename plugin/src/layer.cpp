@@ -803,13 +803,13 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateApiLayerInstance(const XrInstanceCreateInfo
     load(*d, "xrDestroySpace", d->DestroySpace);
     load(*d, "xrLocateSpace", d->LocateSpace);
     load(*d, "xrPollEvent", d->PollEvent);
-    for (uint32_t i = 0; i < info->enabledExtensionCount; ++i)
-      if (std::string_view(info->enabledExtensionNames[i]) == XR_EXT_HAND_TRACKING_EXTENSION_NAME) d->hand_tracking = true;
+    for (uint32_t i = 0; i < info->enabledExtensionCount; ++i) {
+      const std::string_view name(info->enabledExtensionNames[i]);
+      if (name == XR_EXT_HAND_TRACKING_EXTENSION_NAME) d->hand_tracking = true;
+      if (name == XR_EXT_HAND_TRACKING_DATA_SOURCE_EXTENSION_NAME) d->data_source = true;
+    }
     d->raw_joints = raw_joints && d->hand_tracking;
     d->app_timespec = app_timespec;
-    for (uint32_t i = 0; i < info->enabledExtensionCount; ++i)
-      if (std::string_view(info->enabledExtensionNames[i]) == XR_EXT_HAND_TRACKING_DATA_SOURCE_EXTENSION_NAME)
-        d->data_source = true;
     if (have_timespec) load(*d, "xrConvertTimespecTimeToTimeKHR", d->ConvertTimespecTimeToTimeKHR);
     if (d->hand_tracking) {
       load(*d, "xrCreateHandTrackerEXT", d->CreateHandTrackerEXT);

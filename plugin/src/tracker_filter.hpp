@@ -38,6 +38,7 @@
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
+#include <limits>
 #include <memory>
 #include <mutex>
 #include <thread>
@@ -93,7 +94,9 @@ class TrackerFilter {
   // after time `after`: the first sample newer than it restarts the engine as a new hand
   // (another source places and shapes the hand its own way), and until it has, queries
   // after it pass the runtime through. Any thread; the newest call counts.
-  void source_changed(XrTime after) noexcept { source_change_.store(after + 1, std::memory_order_release); }
+  void source_changed(XrTime after) noexcept {
+    source_change_.store(after < std::numeric_limits<XrTime>::max() ? after + 1 : after, std::memory_order_release);
+  }
 
   static constexpr XrTime kMinStep = 1'000'000;        // 1 ms: closer samples are repeats
   static constexpr int kHistory = 32;                  // past estimates kept for older queries
