@@ -56,7 +56,9 @@ ShimConfig shim_config_from_env() {
     c.corrupt_preset = s.substr(0, colon);
     if (colon != std::string::npos) {
       const double seed = parse_number(s.substr(colon + 1), "HANDSTEADY_SHIM_CORRUPT");
-      if (seed < 0.0) throw std::invalid_argument("HANDSTEADY_SHIM_CORRUPT: negative seed");
+      // An integer seed: no NaN, infinity or value beyond 64 bits (their conversion is undefined).
+      if (!(seed >= 0.0 && seed < 0x1p64))
+        throw std::invalid_argument("HANDSTEADY_SHIM_CORRUPT: seed out of [0, 2^64): '" + s.substr(colon + 1) + "'");
       c.corrupt_seed = static_cast<uint64_t>(seed);
     }
   }

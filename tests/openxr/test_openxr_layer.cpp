@@ -507,6 +507,37 @@ TEST_CASE("configuration file selects the engine and its parameters") {
   app.shutdown();
 }
 
+TEST_CASE("the replay runtime refuses a configuration it cannot use, naming the variable") {
+  const TrackFiles f = make_tracks("shimenv", 0.5);
+  const auto log = f.dir / "shimenv_stderr.txt";
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {"HANDSTEADY_SHIM_CORRUPT", "tracker:inf"}, {"HANDSTEADY_SHIM_CORRUPT", "tracker:1e30"},
+      {"HANDSTEADY_SHIM_CORRUPT", "tracker:-1"},  {"HANDSTEADY_SHIM_CONTROLLER", "2,1"},
+      {"HANDSTEADY_SHIM_CONTROLLER", "1"},        {"HANDSTEADY_SHIM_CONTROLLER", "0,nan"}};
+  for (const auto& [name, value] : bad) {
+    CAPTURE(name);
+    CAPTURE(value);
+    reset_env(f);
+    set_env(name.c_str(), value);
+    const char* ext = XR_MND_HEADLESS_EXTENSION_NAME;
+    XrInstanceCreateInfo ci{};
+    ci.type = XR_TYPE_INSTANCE_CREATE_INFO;
+    std::snprintf(ci.applicationInfo.applicationName, XR_MAX_APPLICATION_NAME_SIZE, "handsteady-test");
+    ci.applicationInfo.apiVersion = XR_CURRENT_API_VERSION;
+    ci.enabledExtensionCount = 1;
+    ci.enabledExtensionNames = &ext;
+    XrInstance instance = XR_NULL_HANDLE;
+    XrResult res = XR_SUCCESS;
+    {
+      test::StderrToFile to_log(log);
+      res = xrCreateInstance(&ci, &instance);
+    }
+    CHECK(res == XR_ERROR_RUNTIME_FAILURE);
+    if (XR_SUCCEEDED(res)) xrDestroyInstance(instance);
+    CHECK(hs::test::slurp(log).find(name + ":") != std::string::npos);
+  }
+}
+
 TEST_CASE("without XR_EXT_hand_tracking the layer hooks nothing") {
   const TrackFiles f = make_tracks("noext", 1.0);
   reset_env(f);
