@@ -227,6 +227,11 @@ const T* find_in_chain(const void* next) {
   return nullptr;
 }
 
+// Whether a runtime's answer came from a controller (XR_EXT_hand_tracking_data_source).
+bool from_controller(const XrHandTrackingDataSourceStateEXT& s) noexcept {
+  return s.isActive && s.dataSource == XR_HAND_TRACKING_DATA_SOURCE_CONTROLLER_EXT;
+}
+
 // Whether a tracker's creation chain accepts a controller as the hand's source.
 bool accepts_controller(const void* create_next) noexcept {
   const auto* ds =
@@ -361,7 +366,7 @@ bool locate_world(const TrackerData& t, const XrHandJointsLocateInfoEXT& app_inf
   }
   // A controller's hand is no sample of the tracked hand (when predicting, the time asked
   // may be before the tracker took over again).
-  const bool tracked_hand = !(source.isActive && source.dataSource == XR_HAND_TRACKING_DATA_SOURCE_CONTROLLER_EXT);
+  const bool tracked_hand = !from_controller(source);
   for (int j = 0; j < kJointCount; ++j) {
     if (wl.isActive && tracked_hand && position_tracked(wj[j])) pose.row(j) = xr::to_eigen(wj[j].pose.position).transpose();
     else pose.row(j).setConstant(std::numeric_limits<double>::quiet_NaN());
@@ -564,7 +569,7 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
     // A controller's hand (its pose, fingers from buttons and touch) has no tracker noise
     // to remove, and a network taught on tracked hands would only smooth its deliberate
     // snaps: it passes through, and the hand back from the tracker is a new one.
-    if (source && source->isActive && source->dataSource == XR_HAND_TRACKING_DATA_SOURCE_CONTROLLER_EXT) {
+    if (source && from_controller(*source)) {
       log_once(g_logged_controller, LogLevel::Info,
                "the runtime's hand comes from a controller (XR_EXT_hand_tracking_data_source): passed through "
                "unfiltered; filtering restarts when it comes from hand tracking again");
@@ -765,7 +770,7 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateApiLayerInstance(const XrInstanceCreateInfo
   down.nextInfo = layerInfo->nextInfo->next;
   // Our own extension is ours to answer: the layers and runtime below never see it.
   std::vector<const char*> down_extensions;
-  bool raw_joints = false, app_timespec = false;
+  bool raw_joints = false, app_timespec = false, hand_tracking = false, data_source = false;
   try {
     for (uint32_t i = 0; i < info->enabledExtensionCount; ++i) {
       const std::string_view name(info->enabledExtensionNames[i]);
@@ -774,6 +779,8 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateApiLayerInstance(const XrInstanceCreateInfo
         continue;
       }
       if (name == XR_KHR_CONVERT_TIMESPEC_TIME_EXTENSION_NAME) app_timespec = true;
+      if (name == XR_EXT_HAND_TRACKING_EXTENSION_NAME) hand_tracking = true;
+      if (name == XR_EXT_HAND_TRACKING_DATA_SOURCE_EXTENSION_NAME) data_source = true;
       down_extensions.push_back(info->enabledExtensionNames[i]);
     }
     // The runtime's clock for the layer, when the runtime has it (else created without).
@@ -803,11 +810,8 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateApiLayerInstance(const XrInstanceCreateInfo
     load(*d, "xrDestroySpace", d->DestroySpace);
     load(*d, "xrLocateSpace", d->LocateSpace);
     load(*d, "xrPollEvent", d->PollEvent);
-    for (uint32_t i = 0; i < info->enabledExtensionCount; ++i) {
-      const std::string_view name(info->enabledExtensionNames[i]);
-      if (name == XR_EXT_HAND_TRACKING_EXTENSION_NAME) d->hand_tracking = true;
-      if (name == XR_EXT_HAND_TRACKING_DATA_SOURCE_EXTENSION_NAME) d->data_source = true;
-    }
+    d->hand_tracking = hand_tracking;
+    d->data_source = data_source;
     d->raw_joints = raw_joints && d->hand_tracking;
     d->app_timespec = app_timespec;
     if (have_timespec) load(*d, "xrConvertTimespecTimeToTimeKHR", d->ConvertTimespecTimeToTimeKHR);

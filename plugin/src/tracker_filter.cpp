@@ -34,6 +34,12 @@ Execution execution(const LayerConfig& c) {
   return network ? Execution::Worker : Execution::Inline;
 }
 
+// A run that started before `change` (a world space moved, a hand from another source;
+// 0: none) does not reach time t at or after it.
+bool run_predates(XrTime change, XrTime t, XrTime run_start) noexcept {
+  return change > 0 && t >= change && run_start < change;
+}
+
 double smoothstep(double x) {
   x = std::clamp(x, 0.0, 1.0);
   return x * x * (3.0 - 2.0 * x);
@@ -189,12 +195,12 @@ void TrackerFilter::process(const Sample& s) noexcept {
       // time got in): then start over rather than ignore every later sample.
       if (static_cast<double>(-dt) <= reset_gap_ns_ || ++behind_ < 3) return;
       restart(s.t, false);
-    } else if (source > 0 && s.t >= source && start_ < source) {
+    } else if (run_predates(source, s.t, start_)) {
       // The hand from another source (back from a controller): a new hand, not motion.
       restart(s.t, false);
     } else if (static_cast<double>(dt) > reset_gap_ns_ ||
                hand_jumped(centre_, gate.centre, static_cast<double>(dt) * 1e-9, limits_) ||
-               (change > 0 && s.t >= change && start_ < change)) {
+               run_predates(change, s.t, start_)) {
       // Lost for too long, somewhere no hand could have moved to, or the world space moved
       // under the run (a recentred LOCAL): the motion starts over, what the engine learnt
       // of the hand's shape is kept (and checked).
@@ -288,10 +294,9 @@ bool TrackerFilter::answer(XrTime q, const Sample* pending, Answer& out) const n
   if (!p.valid || q <= 0) return false;
   // The published run is in the world space as it was before a change that applies at q,
   // or of the hand from its source before another took over.
-  const XrTime change = space_change_.load(std::memory_order_acquire);
-  if (change > 0 && q >= change && p.start < change) return false;
-  const XrTime source = source_change_.load(std::memory_order_acquire);
-  if (source > 0 && q >= source && p.start < source) return false;
+  if (run_predates(space_change_.load(std::memory_order_acquire), q, p.start) ||
+      run_predates(source_change_.load(std::memory_order_acquire), q, p.start))
+    return false;
   if (q >= p.t0) {
     if (!p.path_at(q, max_ahead_ns_, out.pose)) return false;
     out.how = q == p.t0 ? TimeAnswer::Exact : TimeAnswer::Predicted;

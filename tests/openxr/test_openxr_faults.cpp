@@ -435,9 +435,7 @@ TEST_CASE("a hand from a controller (XR_EXT_hand_tracking_data_source) passes th
         },
         [&](const std::string& engine, const std::string& mode) {
           App app(true, {XR_NOVENDOR_HANDSTEADY_RAW_JOINTS_EXTENSION_NAME, XR_EXT_HAND_TRACKING_DATA_SOURCE_EXTENSION_NAME});
-          PFN_xrVoidFunction raw_fn = nullptr;
-          REQUIRE(xrGetInstanceProcAddr(app.instance, "xrLocateRawHandJointsNOVENDOR", &raw_fn) == XR_SUCCESS);
-          const auto raw = reinterpret_cast<PFN_xrLocateHandJointsEXT>(raw_fn);
+          const auto raw = app.raw_locate();
           std::array<XrHandTrackingDataSourceEXT, 2> sources = {XR_HAND_TRACKING_DATA_SOURCE_UNOBSTRUCTED_EXT,
                                                                 XR_HAND_TRACKING_DATA_SOURCE_CONTROLLER_EXT};
           XrHandTrackingDataSourceInfoEXT dsi{XR_TYPE_HAND_TRACKING_DATA_SOURCE_INFO_EXT, nullptr, 2, sources.data()};
@@ -544,9 +542,7 @@ TEST_CASE("a tracker of Ultraleap's forearm joint set (27 joints) is filtered as
   const TrackFiles f = make_tracks("forearm", 2.0);
   each_engine_and_mode(f, [] { set_env("HANDSTEADY_SHIM_HEAD_MOTION", "1"); }, [&](const std::string& engine, const std::string& mode) {
     App app(true, {XR_NOVENDOR_HANDSTEADY_RAW_JOINTS_EXTENSION_NAME, XR_ULTRALEAP_HAND_TRACKING_FOREARM_EXTENSION_NAME});
-    PFN_xrVoidFunction raw_fn = nullptr;
-    REQUIRE(xrGetInstanceProcAddr(app.instance, "xrLocateRawHandJointsNOVENDOR", &raw_fn) == XR_SUCCESS);
-    const auto raw = reinterpret_cast<PFN_xrLocateHandJointsEXT>(raw_fn);
+    const auto raw = app.raw_locate();
     std::array<XrHandTrackerEXT, 2> forearm{};
     for (XrHandEXT hand : {XR_HAND_LEFT_EXT, XR_HAND_RIGHT_EXT}) {
       XrHandTrackerCreateInfoEXT hci{XR_TYPE_HAND_TRACKER_CREATE_INFO_EXT, nullptr, hand,

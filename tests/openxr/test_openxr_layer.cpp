@@ -519,18 +519,11 @@ TEST_CASE("the replay runtime refuses a configuration it cannot use, naming the 
     CAPTURE(value);
     reset_env(f);
     set_env(name.c_str(), value);
-    const char* ext = XR_MND_HEADLESS_EXTENSION_NAME;
-    XrInstanceCreateInfo ci{};
-    ci.type = XR_TYPE_INSTANCE_CREATE_INFO;
-    std::snprintf(ci.applicationInfo.applicationName, XR_MAX_APPLICATION_NAME_SIZE, "handsteady-test");
-    ci.applicationInfo.apiVersion = XR_CURRENT_API_VERSION;
-    ci.enabledExtensionCount = 1;
-    ci.enabledExtensionNames = &ext;
     XrInstance instance = XR_NULL_HANDLE;
     XrResult res = XR_SUCCESS;
     {
       test::StderrToFile to_log(log);
-      res = xrCreateInstance(&ci, &instance);
+      res = create_instance({XR_MND_HEADLESS_EXTENSION_NAME}, instance);
     }
     CHECK(res == XR_ERROR_RUNTIME_FAILURE);
     if (XR_SUCCEEDED(res)) xrDestroyInstance(instance);

@@ -103,17 +103,21 @@ PFN proc(XrInstance instance, const char* name) {
 }
 }  // namespace
 
-App::App(bool hand_tracking, const std::vector<const char*>& extra_extensions) {
-  std::vector<const char*> ext = {XR_MND_HEADLESS_EXTENSION_NAME};
-  if (hand_tracking) ext.push_back(XR_EXT_HAND_TRACKING_EXTENSION_NAME);
-  ext.insert(ext.end(), extra_extensions.begin(), extra_extensions.end());
+XrResult create_instance(const std::vector<const char*>& extensions, XrInstance& instance) {
   XrInstanceCreateInfo ci{};
   ci.type = XR_TYPE_INSTANCE_CREATE_INFO;
   std::snprintf(ci.applicationInfo.applicationName, XR_MAX_APPLICATION_NAME_SIZE, "handsteady-test");
   ci.applicationInfo.apiVersion = XR_CURRENT_API_VERSION;
-  ci.enabledExtensionCount = static_cast<uint32_t>(ext.size());
-  ci.enabledExtensionNames = ext.data();
-  REQUIRE(xrCreateInstance(&ci, &instance) == XR_SUCCESS);
+  ci.enabledExtensionCount = static_cast<uint32_t>(extensions.size());
+  ci.enabledExtensionNames = extensions.data();
+  return xrCreateInstance(&ci, &instance);
+}
+
+App::App(bool hand_tracking, const std::vector<const char*>& extra_extensions) {
+  std::vector<const char*> ext = {XR_MND_HEADLESS_EXTENSION_NAME};
+  if (hand_tracking) ext.push_back(XR_EXT_HAND_TRACKING_EXTENSION_NAME);
+  ext.insert(ext.end(), extra_extensions.begin(), extra_extensions.end());
+  REQUIRE(create_instance(ext, instance) == XR_SUCCESS);
 
   XrSystemGetInfo gi{};
   gi.type = XR_TYPE_SYSTEM_GET_INFO;
@@ -209,10 +213,14 @@ Joints App::locate(XrHandEXT hand, XrSpace base, XrTime time, bool velocities, u
   return locate_with(locate_joints, hand, base, time, velocities, joint_count);
 }
 
-Joints App::locate_raw(XrHandEXT hand, XrSpace base, XrTime time) const {
+PFN_xrLocateHandJointsEXT App::raw_locate() const {
   PFN_xrVoidFunction fn = nullptr;
   REQUIRE(xrGetInstanceProcAddr(instance, "xrLocateRawHandJointsNOVENDOR", &fn) == XR_SUCCESS);
-  return locate_with(reinterpret_cast<PFN_xrLocateHandJointsEXT>(fn), hand, base, time, false, XR_HAND_JOINT_COUNT_EXT);
+  return reinterpret_cast<PFN_xrLocateHandJointsEXT>(fn);
+}
+
+Joints App::locate_raw(XrHandEXT hand, XrSpace base, XrTime time) const {
+  return locate_with(raw_locate(), hand, base, time, false, XR_HAND_JOINT_COUNT_EXT);
 }
 
 Joints App::locate_with(PFN_xrLocateHandJointsEXT fn, XrHandEXT hand, XrSpace base, XrTime time, bool velocities,

@@ -44,6 +44,9 @@ void install_implicit_layer(const std::filesystem::path& xdg);
 
 double track_time(const TrackFiles& f, XrTime t);
 
+// xrCreateInstance for the tests' app with these extensions; the loader's result.
+XrResult create_instance(const std::vector<const char*>& extensions, XrInstance& instance);
+
 struct Joints {
   XrResult result = XR_ERROR_RUNTIME_FAILURE;
   XrBool32 active = XR_FALSE;
@@ -69,6 +72,8 @@ class App {
   // The runtime's own answer through the layer's raw side channel (the App must have been
   // created with XR_NOVENDOR_handsteady_raw_joints).
   Joints locate_raw(XrHandEXT hand, XrSpace base, XrTime time) const;
+  // The raw side channel's function, for trackers of the test's own.
+  PFN_xrLocateHandJointsEXT raw_locate() const;
   // Pose of `space` in `base` at time (asserts validity).
   XrPosef space_pose(XrSpace space, XrSpace base, XrTime time) const;
   // Ends the session cleanly (STOPPING -> IDLE -> EXITING) and destroys trackers explicitly
