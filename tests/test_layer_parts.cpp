@@ -3,6 +3,7 @@
 // the worker hand-off) and the pure joint rewrite.
 #include "handsteady/filters.hpp"
 #include "handsteady/hsm_format.hpp"
+#include "fb_hand_state.hpp"
 #include "joint_gate.hpp"
 #include "joint_rewrite.hpp"
 #include "layer_config.hpp"
@@ -514,6 +515,95 @@ TEST_CASE("forearm: the elbow moves with the wrist's correction and is never gar
   CHECK(xr::usable(elbow.pose.orientation));
   CHECK(elbow.radius == wrist.radius);
   CHECK(vel[kJointCount].velocityFlags == 0);
+}
+
+TEST_CASE("Meta's capsules and aim: moved with their joint's rigid change, never garbage") {
+  JointsBefore before;
+  const auto runtime = tracked_joints(hand_at(0.1));
+  std::copy(runtime.begin(), runtime.end(), before.loc.begin());
+  const int k = XR_HAND_JOINT_INDEX_PROXIMAL_EXT, palm = XR_HAND_JOINT_PALM_EXT;
+  const auto capsule_of = [&](const std::array<XrHandJointLocationEXT, kJointCount>& joints) {
+    XrHandTrackingCapsulesStateFB c{};
+    c.type = XR_TYPE_HAND_TRACKING_CAPSULES_STATE_FB;
+    for (XrHandCapsuleFB& cap : c.capsules) {
+      cap.joint = static_cast<XrHandJointEXT>(k);
+      cap.points[0] = joints[k].pose.position;
+      cap.points[1] = joints[k + 1].pose.position;
+      cap.radius = 0.009f;
+    }
+    return c;
+  };
+  // The layer turned the joint by 10 degrees about its own position and moved it by 3 mm:
+  // the capsule the same, its far end on the turned bone.
+  auto answered = runtime;
+  const Eigen::Quaterniond turn(Eigen::AngleAxisd(0.17, Eigen::Vector3d::UnitX()));
+  const xr::Rigid change = Eigen::Translation3d(xr::to_eigen(runtime[k].pose.position) + Eigen::Vector3d(0.003, 0, 0)) *
+                           turn * Eigen::Translation3d(-xr::to_eigen(runtime[k].pose.position));
+  answered[k].pose = xr::to_xr(change * xr::to_rigid(runtime[k].pose));
+  auto caps = capsule_of(runtime);
+  CHECK(move_capsules(before, answered.data(), caps) == 0);
+  const Eigen::Vector3d far_end = change * xr::to_eigen(runtime[k + 1].pose.position);
+  CHECK((xr::to_eigen(caps.capsules[0].points[0]) - xr::to_eigen(answered[k].pose.position)).norm() < 1e-6);
+  CHECK((xr::to_eigen(caps.capsules[0].points[1]) - far_end).norm() < 1e-6);
+  CHECK(caps.capsules[0].radius == 0.009f);
+  // Without a usable orientation on either side, the translation alone.
+  auto unoriented = answered;
+  unoriented[k].pose.orientation = {0, 0, 0, 0};
+  caps = capsule_of(runtime);
+  CHECK(move_capsules(before, unoriented.data(), caps) == 0);
+  const Eigen::Vector3d shift = xr::to_eigen(answered[k].pose.position) - xr::to_eigen(runtime[k].pose.position);
+  CHECK((xr::to_eigen(caps.capsules[0].points[1]) - (xr::to_eigen(runtime[k + 1].pose.position) + shift)).norm() < 1e-6);
+  // A runtime's joint that was garbage tells no change: the capsule is judged as it is.
+  before.garbage[k] = true;
+  caps = capsule_of(runtime);
+  CHECK(move_capsules(before, answered.data(), caps) == 0);
+  CHECK((xr::to_eigen(caps.capsules[0].points[1]) - xr::to_eigen(runtime[k + 1].pose.position)).norm() < 1e-6);
+  before.garbage[k] = false;
+  // Garbage: a point NaN, 1e30 or 40 cm from its joint, a radius NaN, a joint no hand has.
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  caps = capsule_of(runtime);
+  caps.capsules[1].points[0].x = nan;
+  caps.capsules[2].points[1] = {1e30f, 0.0f, 0.0f};
+  caps.capsules[3].points[1].y += 0.4f;
+  caps.capsules[4].radius = nan;
+  caps.capsules[5].joint = static_cast<XrHandJointEXT>(99);
+  CHECK(move_capsules(before, runtime.data(), caps) == 5);
+  for (int c : {1, 2, 3})
+    for (const XrVector3f& p : caps.capsules[c].points) CHECK(xr::to_eigen(p) == xr::to_eigen(runtime[k].pose.position));
+  CHECK(caps.capsules[4].radius == runtime[k].radius);
+  for (const XrVector3f& p : caps.capsules[5].points) CHECK(xr::to_eigen(p) == xr::to_eigen(runtime[palm].pose.position));
+
+  // The aim's origin moves as the palm did; its direction stays the runtime's.
+  XrHandTrackingAimStateFB aim{};
+  aim.type = XR_TYPE_HAND_TRACKING_AIM_STATE_FB;
+  const auto reset_aim = [&] {
+    aim.status = XR_HAND_TRACKING_AIM_COMPUTED_BIT_FB | XR_HAND_TRACKING_AIM_VALID_BIT_FB;
+    aim.aimPose = {{0.0f, 0.6f, 0.0f, 0.8f}, runtime[k].pose.position};
+    aim.pinchStrengthIndex = 0.5f;
+    aim.pinchStrengthMiddle = aim.pinchStrengthRing = aim.pinchStrengthLittle = 0.0f;
+  };
+  reset_aim();
+  auto palm_moved = runtime;
+  palm_moved[palm].pose.position.z -= 0.02f;
+  CHECK(move_aim(before, palm_moved.data(), aim) == 0);
+  CHECK((xr::to_eigen(aim.aimPose.position) - (xr::to_eigen(runtime[k].pose.position) + Eigen::Vector3d(0, 0, -0.02))).norm() < 1e-6);
+  CHECK(aim.aimPose.orientation.y == 0.6f);
+  CHECK(aim.pinchStrengthIndex == 0.5f);
+  // Garbage flagged valid loses its valid bit and sits at the palm; pinches clamped.
+  for (const XrPosef bad : {XrPosef{{0, 0, 0, 0}, runtime[k].pose.position}, XrPosef{{0, 0, 0, 1}, {nan, 0, 0}},
+                            XrPosef{{0, 0, 0, 1}, {0.0f, 2.0f, 0.0f}}}) {
+    reset_aim();
+    aim.aimPose = bad;
+    aim.pinchStrengthMiddle = nan;
+    aim.pinchStrengthRing = 3.0f;
+    CHECK(move_aim(before, runtime.data(), aim) == 3);
+    CHECK((aim.status & XR_HAND_TRACKING_AIM_VALID_BIT_FB) == 0);
+    CHECK((aim.status & XR_HAND_TRACKING_AIM_COMPUTED_BIT_FB) != 0);
+    CHECK(xr::to_eigen(aim.aimPose.position) == xr::to_eigen(runtime[palm].pose.position));
+    CHECK(xr::usable(aim.aimPose.orientation));
+    CHECK(aim.pinchStrengthMiddle == 0.0f);
+    CHECK(aim.pinchStrengthRing == 1.0f);
+  }
 }
 
 TEST_CASE("repair: a radius no hand has, where the position is valid, becomes a neighbour's, 0 stays") {

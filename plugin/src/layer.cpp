@@ -22,6 +22,7 @@
 #include "handsteady_xr/raw_joints_ext.h"
 #include "handsteady_xr/ultraleap_forearm.hpp"
 #include "handsteady_xr/xr_math.hpp"
+#include "fb_hand_state.hpp"
 #include "hand_tuning.hpp"
 #include "joint_rewrite.hpp"
 #include "layer_config.hpp"
@@ -77,7 +78,7 @@ std::atomic<bool> g_logged_internal{false}, g_logged_world_space{false}, g_logge
     g_logged_world_locate{false}, g_logged_record{false}, g_logged_engine{false}, g_logged_space_garbage{false},
     g_logged_latest{false}, g_logged_time{false}, g_logged_repaired{false}, g_logged_garbage{false},
     g_logged_recentre{false}, g_logged_untracked{false}, g_logged_controller{false},
-    g_logged_joint_set{false};
+    g_logged_joint_set{false}, g_logged_fb_garbage{false};
 
 // ---------------------------------------------------------------- state
 
@@ -101,6 +102,8 @@ struct InstanceData {
   bool raw_joints = false;     // the app enabled our XR_NOVENDOR_handsteady_raw_joints
   bool app_timespec = false;   // the app enabled XR_KHR_convert_timespec_time itself
   bool data_source = false;    // the app enabled XR_EXT_hand_tracking_data_source
+  bool fb_capsules = false;    // the app enabled XR_FB_hand_tracking_capsules
+  bool fb_aim = false;         // the app enabled XR_FB_hand_tracking_aim
   LayerConfig config;
   std::unique_ptr<HandTuning> tuning;  // per-hand smoothing and horizon, live
 
@@ -566,6 +569,17 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
   try {
     const XrVector3f wrist_before = out->jointLocations[XR_HAND_JOINT_WRIST_EXT].pose.position;
     JointMask garbage = garbage_joints(out->jointLocations);
+    // Meta's capsules and aim, computed by the runtime from its joints, move with them.
+    auto* capsules = t->inst->fb_capsules
+                         ? find_in_chain<XrHandTrackingCapsulesStateFB, XR_TYPE_HAND_TRACKING_CAPSULES_STATE_FB>(out->next)
+                         : nullptr;
+    auto* aim = t->inst->fb_aim ? find_in_chain<XrHandTrackingAimStateFB, XR_TYPE_HAND_TRACKING_AIM_STATE_FB>(out->next)
+                                : nullptr;
+    JointsBefore before;
+    if (capsules || aim) {
+      std::copy_n(out->jointLocations, kJointCount, before.loc.begin());
+      before.garbage = garbage;
+    }
     // A controller's hand (its pose, fingers from buttons and touch) has no tracker noise
     // to remove, and a network taught on tracked hands would only smooth its deliberate
     // snaps: it passes through, and the hand back from the tracker is a new one.
@@ -596,6 +610,13 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
       log_once(g_logged_garbage, LogLevel::Warn,
                "the runtime reported impossible joint data as valid: positions replaced by a neighbour's (not "
                "tracked), radii by a neighbour's, velocities marked invalid");
+    int fb_repaired = 0;
+    if (capsules) fb_repaired += move_capsules(before, out->jointLocations, *capsules);
+    if (aim) fb_repaired += move_aim(before, out->jointLocations, *aim);
+    if (fb_repaired > 0)
+      log_once(g_logged_fb_garbage, LogLevel::Warn,
+               "the runtime's hand capsules or aim (XR_FB_hand_tracking_capsules, XR_FB_hand_tracking_aim) were "
+               "impossible: capsules collapsed onto their joint, the aim marked invalid, pinch strengths clamped");
   } catch (...) {
     t->passthrough = true;
     log_once(g_logged_internal, LogLevel::Error, "internal failure while filtering: this tracker passes through");
@@ -770,7 +791,8 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateApiLayerInstance(const XrInstanceCreateInfo
   down.nextInfo = layerInfo->nextInfo->next;
   // Our own extension is ours to answer: the layers and runtime below never see it.
   std::vector<const char*> down_extensions;
-  bool raw_joints = false, app_timespec = false, hand_tracking = false, data_source = false;
+  bool raw_joints = false, app_timespec = false, hand_tracking = false, data_source = false, fb_capsules = false,
+       fb_aim = false;
   try {
     for (uint32_t i = 0; i < info->enabledExtensionCount; ++i) {
       const std::string_view name(info->enabledExtensionNames[i]);
@@ -781,6 +803,8 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateApiLayerInstance(const XrInstanceCreateInfo
       if (name == XR_KHR_CONVERT_TIMESPEC_TIME_EXTENSION_NAME) app_timespec = true;
       if (name == XR_EXT_HAND_TRACKING_EXTENSION_NAME) hand_tracking = true;
       if (name == XR_EXT_HAND_TRACKING_DATA_SOURCE_EXTENSION_NAME) data_source = true;
+      if (name == XR_FB_HAND_TRACKING_CAPSULES_EXTENSION_NAME) fb_capsules = true;
+      if (name == XR_FB_HAND_TRACKING_AIM_EXTENSION_NAME) fb_aim = true;
       down_extensions.push_back(info->enabledExtensionNames[i]);
     }
     // The runtime's clock for the layer, when the runtime has it (else created without).
@@ -812,6 +836,8 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateApiLayerInstance(const XrInstanceCreateInfo
     load(*d, "xrPollEvent", d->PollEvent);
     d->hand_tracking = hand_tracking;
     d->data_source = data_source;
+    d->fb_capsules = fb_capsules;
+    d->fb_aim = fb_aim;
     d->raw_joints = raw_joints && d->hand_tracking;
     d->app_timespec = app_timespec;
     if (have_timespec) load(*d, "xrConvertTimespecTimeToTimeKHR", d->ConvertTimespecTimeToTimeKHR);

@@ -2,12 +2,14 @@
 #include "shim_hand.hpp"
 
 #include "handsteady/track_ops.hpp"
+#include "handsteady_xr/xr_math.hpp"
 
 #include <Eigen/Geometry>
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <utility>
 
 namespace hs::shim {
 
@@ -111,6 +113,47 @@ void inject_joint_faults(const FaultRates& f, XrTime t, int h, XrHandJointLocati
     if (velocities && fault_draw(t, h, j, 8) < f.velocity)
       velocities[j].linearVelocity =
           fault_draw(t, h, j, 9) < 0.5 ? XrVector3f{1e6f, -1e6f, 1e6f} : XrVector3f{kNaNf, 0.f, 0.f};
+  }
+}
+
+void fill_capsules(const XrHandJointLocationEXT* joints, XrHandTrackingCapsulesStateFB& capsules) {
+  constexpr std::array<int, XR_FB_HAND_TRACKING_CAPSULE_COUNT> kBones = {
+      XR_HAND_JOINT_THUMB_METACARPAL_EXT,  XR_HAND_JOINT_THUMB_PROXIMAL_EXT,       XR_HAND_JOINT_THUMB_DISTAL_EXT,
+      XR_HAND_JOINT_INDEX_METACARPAL_EXT,  XR_HAND_JOINT_INDEX_PROXIMAL_EXT,       XR_HAND_JOINT_INDEX_INTERMEDIATE_EXT,
+      XR_HAND_JOINT_INDEX_DISTAL_EXT,      XR_HAND_JOINT_MIDDLE_METACARPAL_EXT,    XR_HAND_JOINT_MIDDLE_PROXIMAL_EXT,
+      XR_HAND_JOINT_MIDDLE_INTERMEDIATE_EXT, XR_HAND_JOINT_MIDDLE_DISTAL_EXT,      XR_HAND_JOINT_RING_METACARPAL_EXT,
+      XR_HAND_JOINT_RING_PROXIMAL_EXT,     XR_HAND_JOINT_RING_INTERMEDIATE_EXT,    XR_HAND_JOINT_RING_DISTAL_EXT,
+      XR_HAND_JOINT_LITTLE_METACARPAL_EXT, XR_HAND_JOINT_LITTLE_PROXIMAL_EXT,      XR_HAND_JOINT_LITTLE_INTERMEDIATE_EXT,
+      XR_HAND_JOINT_LITTLE_DISTAL_EXT};
+  for (size_t i = 0; i < kBones.size(); ++i) {
+    XrHandCapsuleFB& c = capsules.capsules[i];
+    const int j = kBones[i];
+    c.joint = static_cast<XrHandJointEXT>(j);
+    c.points[0] = joints[j].pose.position;
+    c.points[1] = joints[j + 1].pose.position;
+    c.radius = joints[j].radius;
+  }
+}
+
+void fill_aim(const XrHandJointLocationEXT* joints, XrHandTrackingAimStateFB& aim) {
+  aim.status = XR_HAND_TRACKING_AIM_COMPUTED_BIT_FB | XR_HAND_TRACKING_AIM_VALID_BIT_FB;
+  aim.aimPose.position = joints[XR_HAND_JOINT_INDEX_PROXIMAL_EXT].pose.position;
+  aim.aimPose.orientation = joints[XR_HAND_JOINT_PALM_EXT].pose.orientation;
+  const Eigen::Vector3d thumb = xr::to_eigen(joints[XR_HAND_JOINT_THUMB_TIP_EXT].pose.position);
+  const std::array<std::pair<float*, XrHandTrackingAimFlagsFB>, 4> fingers = {{
+      {&aim.pinchStrengthIndex, XR_HAND_TRACKING_AIM_INDEX_PINCHING_BIT_FB},
+      {&aim.pinchStrengthMiddle, XR_HAND_TRACKING_AIM_MIDDLE_PINCHING_BIT_FB},
+      {&aim.pinchStrengthRing, XR_HAND_TRACKING_AIM_RING_PINCHING_BIT_FB},
+      {&aim.pinchStrengthLittle, XR_HAND_TRACKING_AIM_LITTLE_PINCHING_BIT_FB},
+  }};
+  constexpr std::array<int, 4> kTips = {XR_HAND_JOINT_INDEX_TIP_EXT, XR_HAND_JOINT_MIDDLE_TIP_EXT,
+                                        XR_HAND_JOINT_RING_TIP_EXT, XR_HAND_JOINT_LITTLE_TIP_EXT};
+  for (size_t i = 0; i < kTips.size(); ++i) {
+    const double d = (xr::to_eigen(joints[kTips[i]].pose.position) - thumb).norm();
+    // NaN stays NaN: a runtime computing from garbage joints.
+    const float s = static_cast<float>(d < 0.01 ? 1.0 : d > 0.05 ? 0.0 : (0.05 - d) / 0.04);
+    *fingers[i].first = std::isnan(d) ? kNaNf : s;
+    if (s >= 0.9f) aim.status |= fingers[i].second;
   }
 }
 

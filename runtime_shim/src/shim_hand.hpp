@@ -50,4 +50,13 @@ double fault_draw(XrTime t, int a, int b, uint64_t salt);
 void inject_joint_faults(const FaultRates& f, XrTime t, int hand, XrHandJointLocationEXT* joints,
                          XrHandJointVelocityEXT* velocities);
 
+// XR_FB_hand_tracking_capsules and XR_FB_hand_tracking_aim, computed from the answered
+// joints (faults included, as a runtime computes them from its own): a capsule per bone
+// of the thumb (metacarpal, proximal, distal) and of each finger (metacarpal to distal),
+// from its joint to the next, its joint's radius; the aim at the index finger's proximal
+// joint, oriented as the palm, valid with the hand, pinch strengths from the thumb tip's
+// distance to each fingertip (1 at 1 cm, 0 from 5 cm; pinching from 0.9).
+void fill_capsules(const XrHandJointLocationEXT* joints, XrHandTrackingCapsulesStateFB& capsules);
+void fill_aim(const XrHandJointLocationEXT* joints, XrHandTrackingAimStateFB& aim);
+
 }  // namespace hs::shim

@@ -69,7 +69,8 @@ struct Runtime {
   std::mutex mu;
   bool live = false;
   XrInstance instance = XR_NULL_HANDLE;
-  bool ext_hand = false, ext_headless = false, ext_timespec = false, ext_data_source = false, ext_forearm = false;
+  bool ext_hand = false, ext_headless = false, ext_timespec = false, ext_data_source = false, ext_forearm = false,
+       ext_capsules = false, ext_aim = false;
   ShimConfig cfg;
   std::array<HandSeries, 2> hands;
   std::array<HandSeries, 2> controller_hands;  // the recording uncorrupted, where a controller places it
@@ -204,10 +205,12 @@ struct ExtensionInfo {
   const char* name;
   uint32_t version;
 };
-constexpr std::array<ExtensionInfo, 5> kExtensions = {{
+constexpr std::array<ExtensionInfo, 7> kExtensions = {{
     {XR_EXT_HAND_TRACKING_EXTENSION_NAME, XR_EXT_hand_tracking_SPEC_VERSION},
     {XR_EXT_HAND_TRACKING_DATA_SOURCE_EXTENSION_NAME, XR_EXT_hand_tracking_data_source_SPEC_VERSION},
     {XR_ULTRALEAP_HAND_TRACKING_FOREARM_EXTENSION_NAME, XR_ULTRALEAP_hand_tracking_forearm_SPEC_VERSION},
+    {XR_FB_HAND_TRACKING_CAPSULES_EXTENSION_NAME, XR_FB_hand_tracking_capsules_SPEC_VERSION},
+    {XR_FB_HAND_TRACKING_AIM_EXTENSION_NAME, XR_FB_hand_tracking_aim_SPEC_VERSION},
     {XR_MND_HEADLESS_EXTENSION_NAME, XR_MND_headless_SPEC_VERSION},
     {XR_KHR_CONVERT_TIMESPEC_TIME_EXTENSION_NAME, XR_KHR_convert_timespec_time_SPEC_VERSION},
 }};
@@ -239,12 +242,15 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateInstance(const XrInstanceCreateInfo* info, 
   Runtime& r = rt();
   std::lock_guard lock(r.mu);
   if (r.live) return XR_ERROR_LIMIT_REACHED;
-  bool hand = false, headless = false, timespec = false, data_source = false, forearm = false;
+  bool hand = false, headless = false, timespec = false, data_source = false, forearm = false, capsules = false,
+       aim = false;
   for (uint32_t i = 0; i < info->enabledExtensionCount; ++i) {
     const std::string_view name = info->enabledExtensionNames[i];
     if (name == XR_EXT_HAND_TRACKING_EXTENSION_NAME) hand = true;
     else if (name == XR_EXT_HAND_TRACKING_DATA_SOURCE_EXTENSION_NAME) data_source = true;
     else if (name == XR_ULTRALEAP_HAND_TRACKING_FOREARM_EXTENSION_NAME) forearm = true;
+    else if (name == XR_FB_HAND_TRACKING_CAPSULES_EXTENSION_NAME) capsules = true;
+    else if (name == XR_FB_HAND_TRACKING_AIM_EXTENSION_NAME) aim = true;
     else if (name == XR_MND_HEADLESS_EXTENSION_NAME) headless = true;
     else if (name == XR_KHR_CONVERT_TIMESPEC_TIME_EXTENSION_NAME) timespec = true;
     else return XR_ERROR_EXTENSION_NOT_PRESENT;
@@ -284,6 +290,8 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateInstance(const XrInstanceCreateInfo* info, 
   r.ext_timespec = timespec;
   r.ext_data_source = data_source;
   r.ext_forearm = forearm;
+  r.ext_capsules = capsules;
+  r.ext_aim = aim;
   r.sessions.clear();
   r.spaces.clear();
   r.trackers.clear();
@@ -713,7 +721,12 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
   if (info->time <= 0) return XR_ERROR_TIME_INVALID;
   XrHandJointVelocitiesEXT* vel = nullptr;
   XrHandTrackingDataSourceStateEXT* source = nullptr;
+  XrHandTrackingCapsulesStateFB* capsules = nullptr;
+  XrHandTrackingAimStateFB* aim = nullptr;
   for (auto* s = static_cast<XrBaseOutStructure*>(out->next); s; s = s->next) {
+    if (s->type == XR_TYPE_HAND_TRACKING_CAPSULES_STATE_FB && r.ext_capsules)
+      capsules = reinterpret_cast<XrHandTrackingCapsulesStateFB*>(s);
+    if (s->type == XR_TYPE_HAND_TRACKING_AIM_STATE_FB && r.ext_aim) aim = reinterpret_cast<XrHandTrackingAimStateFB*>(s);
     if (s->type == XR_TYPE_HAND_JOINT_VELOCITIES_EXT) vel = reinterpret_cast<XrHandJointVelocitiesEXT*>(s);
     if (s->type == XR_TYPE_HAND_TRACKING_DATA_SOURCE_STATE_EXT && r.ext_data_source)
       source = reinterpret_cast<XrHandTrackingDataSourceStateEXT*>(s);
@@ -736,6 +749,7 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
   }
   if (!any_joint_tracked(world)) {
     out->isActive = XR_FALSE;
+    if (aim) aim->status = 0;
     for (uint32_t j = 0; j < out->jointCount; ++j) out->jointLocations[j].locationFlags = 0;
     if (vel)
       for (uint32_t j = 0; j < vel->jointCount; ++j) vel->jointVelocities[j].velocityFlags = 0;
@@ -794,6 +808,8 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
   }
   inject_joint_faults(r.cfg.faults, info->time, hand == XR_HAND_LEFT_EXT ? 0 : 1, out->jointLocations,
                       vel ? vel->jointVelocities : nullptr);
+  if (capsules) fill_capsules(out->jointLocations, *capsules);
+  if (aim) fill_aim(out->jointLocations, *aim);
   return XR_SUCCESS;
 }
 

@@ -6,6 +6,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <fstream>
 #include <limits>
 #include <thread>
@@ -592,6 +593,145 @@ TEST_CASE("a tracker of Ultraleap's forearm joint set (27 joints) is filtered as
     for (XrHandTrackerEXT t : forearm) CHECK(app.destroy_tracker(t) == XR_SUCCESS);
     app.shutdown();
   });
+}
+
+// An answer with Meta's capsules and aim chained (XR_FB_hand_tracking_capsules, _aim).
+struct MetaJoints {
+  XrResult result = XR_ERROR_RUNTIME_FAILURE;
+  XrBool32 active = XR_FALSE;
+  std::array<XrHandJointLocationEXT, XR_HAND_JOINT_COUNT_EXT> loc{};
+  XrHandTrackingCapsulesStateFB capsules{};
+  XrHandTrackingAimStateFB aim{};
+  Eigen::Vector3d at(int j) const { return xr::to_eigen(loc[static_cast<size_t>(j)].pose.position); }
+};
+MetaJoints locate_meta(PFN_xrLocateHandJointsEXT fn, XrHandTrackerEXT tracker, XrSpace base, XrTime time) {
+  MetaJoints r;
+  r.aim.type = XR_TYPE_HAND_TRACKING_AIM_STATE_FB;
+  r.capsules.type = XR_TYPE_HAND_TRACKING_CAPSULES_STATE_FB;
+  r.capsules.next = &r.aim;
+  XrHandJointLocationsEXT out{XR_TYPE_HAND_JOINT_LOCATIONS_EXT, &r.capsules, XR_FALSE, XR_HAND_JOINT_COUNT_EXT,
+                              r.loc.data()};
+  XrHandJointsLocateInfoEXT info{XR_TYPE_HAND_JOINTS_LOCATE_INFO_EXT, nullptr, base, time};
+  r.result = fn(tracker, &info, &out);
+  r.active = out.isActive;
+  return r;
+}
+
+// What an app could not use: a capsule point non-finite, beyond 1 km or 30 cm from its
+// joint, a radius no hand has; an aim flagged valid but non-finite, unusable or 50 cm
+// from the palm; a pinch strength outside [0, 1].
+int meta_garbage(const MetaJoints& m) {
+  int bad = 0;
+  for (const XrHandCapsuleFB& c : m.capsules.capsules) {
+    const int j = static_cast<int>(c.joint);
+    if (j < 0 || j >= kJointCount) {
+      ++bad;
+      continue;
+    }
+    // Judged from the joint's place (valid or not) wherever it is one.
+    const bool placed = m.at(j).allFinite() && m.at(j).norm() < 1e3;
+    for (const XrVector3f& p : c.points)
+      bad += !(xr::finite(p) && xr::to_eigen(p).norm() < 1e3 && (!placed || (xr::to_eigen(p) - m.at(j)).norm() < 0.3));
+    bad += !(c.radius >= 0.0f && c.radius < 0.1f);
+  }
+  const Eigen::Vector3d palm = m.at(XR_HAND_JOINT_PALM_EXT);
+  if (m.aim.status & XR_HAND_TRACKING_AIM_VALID_BIT_FB)
+    bad += !(xr::finite(m.aim.aimPose.position) && xr::to_eigen(m.aim.aimPose.position).norm() < 1e3 &&
+             xr::usable(m.aim.aimPose.orientation) &&
+             (!(palm.allFinite() && palm.norm() < 1e3) || (xr::to_eigen(m.aim.aimPose.position) - palm).norm() < 0.5));
+  for (float s : {m.aim.pinchStrengthIndex, m.aim.pinchStrengthMiddle, m.aim.pinchStrengthRing, m.aim.pinchStrengthLittle})
+    bad += !(s >= 0.0f && s <= 1.0f);
+  return bad;
+}
+
+TEST_CASE("Meta's hand capsules and aim (XR_FB_hand_tracking_capsules, _aim) move with the joints the layer answers") {
+  // The runtime computes both from its own joints. Before, the layer moved the joints and
+  // left them where the runtime put them: colliders and pointer off the hand the app draws
+  // (millimetres when denoising, centimetres when predicting).
+  const std::vector<const char*> ext = {XR_NOVENDOR_HANDSTEADY_RAW_JOINTS_EXTENSION_NAME,
+                                        XR_FB_HAND_TRACKING_CAPSULES_EXTENSION_NAME, XR_FB_HAND_TRACKING_AIM_EXTENSION_NAME};
+  const TrackFiles f = make_tracks("meta", 2.0);
+  SUBCASE("each capsule and the aim ride on their joint, keeping the runtime's shape") {
+    each_engine_and_mode(f, [] { set_env("HANDSTEADY_SHIM_HEAD_MOTION", "1"); }, [&](const std::string& engine, const std::string& mode) {
+      App app(true, ext);
+      const auto raw = app.raw_locate();
+      double start_off = 0.0, end_off = 0.0, length_off = 0.0, aim_off = 0.0, runtime_off = 0.0;
+      long answers = 0, aim_differs = 0;
+      for (int i = 0; i < 120; ++i) {
+        const XrTime T = app.frame();
+        for (XrHandEXT hand : {XR_HAND_LEFT_EXT, XR_HAND_RIGHT_EXT}) {
+          const MetaJoints j = locate_meta(app.locate_joints, app.trackers[hand - 1], app.view, T);
+          const MetaJoints r = locate_meta(raw, app.trackers[hand - 1], app.view, T);
+          REQUIRE(j.result == XR_SUCCESS);
+          REQUIRE(r.result == XR_SUCCESS);
+          REQUIRE(j.active);
+          ++answers;
+          for (size_t c = 0; c < std::size(j.capsules.capsules); ++c) {
+            const XrHandCapsuleFB &a = j.capsules.capsules[c], &b = r.capsules.capsules[c];
+            const int k = static_cast<int>(a.joint);
+            REQUIRE(a.joint == b.joint);
+            const Eigen::Vector3d p0 = xr::to_eigen(a.points[0]), p1 = xr::to_eigen(a.points[1]);
+            // The runtime's capsule runs from its joint to the next: so does the answer's,
+            // at the runtime's length, along the answered bone.
+            start_off = std::max(start_off, (p0 - j.at(k)).norm());
+            const Eigen::Vector3d bone = (j.at(k + 1) - j.at(k)).normalized();
+            end_off = std::max(end_off, ((p1 - p0) - (p1 - p0).dot(bone) * bone).norm());
+            length_off = std::max(length_off, std::abs((p1 - p0).norm() - (xr::to_eigen(b.points[1]) - xr::to_eigen(b.points[0])).norm()));
+            runtime_off = std::max(runtime_off, (p0 - xr::to_eigen(b.points[0])).norm());
+            CHECK(a.radius == b.radius);
+          }
+          // The aim: where the runtime put it relative to the palm, its direction the runtime's.
+          aim_off = std::max(aim_off, ((xr::to_eigen(j.aim.aimPose.position) - j.at(XR_HAND_JOINT_PALM_EXT)) -
+                                       (xr::to_eigen(r.aim.aimPose.position) - r.at(XR_HAND_JOINT_PALM_EXT))).norm());
+          aim_differs += j.aim.status != r.aim.status || j.aim.pinchStrengthIndex != r.aim.pinchStrengthIndex ||
+                         std::memcmp(&j.aim.aimPose.orientation, &r.aim.aimPose.orientation, sizeof(XrQuaternionf)) != 0;
+        }
+      }
+      MESSAGE(engine << " " << mode << ": capsules moved up to " << runtime_off * 1e3
+                     << " mm from the runtime's; off their joint by " << start_off * 1e3 << " mm, off the bone by "
+                     << end_off * 1e3 << " mm, length changed by " << length_off * 1e3 << " mm; aim off the palm's offset by "
+                     << aim_off * 1e3 << " mm");
+      CHECK(answers == 240);
+      CHECK(runtime_off > 1e-3);  // the layer did move the hand
+      CHECK(start_off < 1e-5);
+      CHECK(end_off < 1e-5);
+      CHECK(length_off < 1e-5);
+      CHECK(aim_off < 1e-5);
+      CHECK(aim_differs == 0);
+      app.shutdown();
+    });
+  }
+  SUBCASE("garbage from the runtime (joints, radii, collapsed hands) never reaches the app's capsules or aim") {
+    const auto log = f.dir / "meta_faults.log";
+    {
+      test::StderrToFile to_log(log);
+      each_engine_and_mode(f, [] { set_env("HANDSTEADY_SHIM_FAULTS", "nan:0.02,huge:0.02,quat:0.02,origin:0.02,radius:0.05,collapse:0.03"); },
+                           [&](const std::string& engine, const std::string& mode) {
+        App app(true, ext);
+        const auto raw = app.raw_locate();
+        long layer_bad = 0, runtime_bad = 0, aims_valid = 0;
+        for (int i = 0; i < 120; ++i) {
+          const XrTime T = app.frame();
+          for (XrHandEXT hand : {XR_HAND_LEFT_EXT, XR_HAND_RIGHT_EXT}) {
+            const MetaJoints j = locate_meta(app.locate_joints, app.trackers[hand - 1], app.local, T);
+            const MetaJoints r = locate_meta(raw, app.trackers[hand - 1], app.local, T);
+            REQUIRE(j.result == XR_SUCCESS);
+            if (!j.active) continue;
+            layer_bad += meta_garbage(j);
+            runtime_bad += meta_garbage(r);
+            aims_valid += (j.aim.status & XR_HAND_TRACKING_AIM_VALID_BIT_FB) != 0;
+          }
+        }
+        MESSAGE(engine << " " << mode << ": unusable capsule points, radii, aims and pinches: runtime " << runtime_bad
+                       << ", layer " << layer_bad << "; valid aims " << aims_valid);
+        CHECK(runtime_bad > 50);  // the faults reach the runtime's capsules and aim
+        CHECK(layer_bad == 0);
+        CHECK(aims_valid > 200);  // only the garbage aims lose their valid bit
+        app.shutdown();
+      });
+    }
+    check_logged_once(log, "hand capsules or aim");
+  }
 }
 
 TEST_CASE("a recentred LOCAL (reference space change pending): answers in STAGE show no transient") {
