@@ -1,0 +1,87 @@
+// The layer's real-time path through the real loader: once a tracker runs, an
+// xrLocateHandJointsEXT call allocates nothing, anywhere in the process (the layer, the
+// loader's trampoline, the replay runtime, the layer's worker thread). Its own executable:
+// allocation_counting.hpp replaces the process's allocation functions.
+#include "allocation_counting.hpp"
+#include "xr_test_app.hpp"
+
+#include <doctest/doctest.h>
+
+#include <array>
+#include <string>
+
+using namespace hs;
+using namespace hs::xrtest;
+
+namespace {
+
+// One answer with everything an app may chain: velocities, Meta's capsules and aim.
+struct Answer {
+  std::array<XrHandJointLocationEXT, XR_HAND_JOINT_COUNT_EXT> loc{};
+  std::array<XrHandJointVelocityEXT, XR_HAND_JOINT_COUNT_EXT> vel{};
+  XrHandTrackingCapsulesStateFB capsules{};
+  XrHandTrackingAimStateFB aim{};
+};
+
+XrResult locate_all(const App& app, XrHandEXT hand, XrTime time, Answer& a) {
+  a.aim.type = XR_TYPE_HAND_TRACKING_AIM_STATE_FB;
+  a.aim.next = nullptr;
+  a.capsules.type = XR_TYPE_HAND_TRACKING_CAPSULES_STATE_FB;
+  a.capsules.next = &a.aim;
+  XrHandJointVelocitiesEXT vel{XR_TYPE_HAND_JOINT_VELOCITIES_EXT, &a.capsules, XR_HAND_JOINT_COUNT_EXT, a.vel.data()};
+  XrHandJointLocationsEXT out{XR_TYPE_HAND_JOINT_LOCATIONS_EXT, &vel, XR_FALSE, XR_HAND_JOINT_COUNT_EXT, a.loc.data()};
+  XrHandJointsLocateInfoEXT info{XR_TYPE_HAND_JOINTS_LOCATE_INFO_EXT, nullptr, app.view, time};
+  return app.locate_joints(app.trackers[hand - 1], &info, &out);
+}
+
+}  // namespace
+
+TEST_CASE("once a tracker runs, locating its joints allocates nothing (layer, loader, runtime, worker)") {
+  // Counted over whole frames (xrWaitFrame/xrBeginFrame/xrEndFrame included), so that the
+  // worker's steps between the app's calls count too. Malloc and operator new both
+  // (operator new alone in sanitizer builds, which interpose malloc themselves).
+  const TrackFiles f = make_tracks("alloc", 3.0);
+  // stgae: the shipped model on its worker thread (the default), and the worker in lockstep
+  // (each step done before the app's call returns, so every step falls in the count).
+  for (const std::string engine : {"classical", "stgae", "stgae-lockstep"})
+    for (const std::string mode : {"denoise", "predict"})
+      for (const bool faults : {false, true}) {
+        CAPTURE(engine);
+        CAPTURE(mode);
+        CAPTURE(faults);
+        reset_env(f);
+        set_env("HANDSTEADY_SHIM_HEAD_MOTION", "1");
+        if (faults)
+          set_env("HANDSTEADY_SHIM_FAULTS",
+                  "nan:0.02,huge:0.02,quat:0.02,origin:0.02,radius:0.05,velocity:0.05,collapse:0.02,space:0.02");
+        set_env("HANDSTEADY_MODE", mode);
+        if (engine == "classical") set_env("HANDSTEADY_METHOD", mode == "predict" ? "kalman" : "oneeuro");
+        else unset_env("HANDSTEADY_METHOD");  // the shipped model, the default
+        if (engine == "stgae-lockstep") set_env("HANDSTEADY_WORKER", "lockstep");
+        enable_layers({kLayer});
+        App app(true, {XR_FB_HAND_TRACKING_CAPSULES_EXTENSION_NAME, XR_FB_HAND_TRACKING_AIM_EXTENSION_NAME});
+        Answer a;
+        long failed = 0, answered = 0;
+        for (int i = 0; i < 60; ++i) {  // warm: the engine's first answers, every log said once
+          const XrTime T = app.frame();
+          for (XrHandEXT hand : {XR_HAND_LEFT_EXT, XR_HAND_RIGHT_EXT}) failed += locate_all(app, hand, T, a) != XR_SUCCESS;
+        }
+        test::g_allocations = 0;
+        test::g_counting = true;
+        for (int i = 0; i < 150; ++i) {
+          const XrTime T = app.frame();
+          for (XrHandEXT hand : {XR_HAND_LEFT_EXT, XR_HAND_RIGHT_EXT}) {
+            failed += locate_all(app, hand, T, a) != XR_SUCCESS;
+            ++answered;
+          }
+        }
+        test::g_counting = false;
+        const long allocations = test::g_allocations;
+        const std::string what = engine + " " + mode + (faults ? " with faults" : "");
+        MESSAGE(what << ": " << allocations << " allocations in "
+                       << answered << " answers (malloc counted: " << HS_COUNT_MALLOC << ")");
+        CHECK(failed == 0);
+        CHECK(allocations == 0);
+        app.shutdown();
+      }
+}
