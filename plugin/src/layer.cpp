@@ -33,6 +33,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -78,7 +79,7 @@ std::atomic<bool> g_logged_internal{false}, g_logged_world_space{false}, g_logge
     g_logged_world_locate{false}, g_logged_record{false}, g_logged_engine{false}, g_logged_space_garbage{false},
     g_logged_latest{false}, g_logged_time{false}, g_logged_repaired{false}, g_logged_garbage{false},
     g_logged_recentre{false}, g_logged_untracked{false}, g_logged_controller{false},
-    g_logged_joint_set{false}, g_logged_fb_garbage{false};
+    g_logged_joint_set{false}, g_logged_fb_garbage{false}, g_logged_scale{false};
 
 // ---------------------------------------------------------------- state
 
@@ -104,6 +105,7 @@ struct InstanceData {
   bool data_source = false;    // the app enabled XR_EXT_hand_tracking_data_source
   bool fb_capsules = false;    // the app enabled XR_FB_hand_tracking_capsules
   bool fb_aim = false;         // the app enabled XR_FB_hand_tracking_aim
+  bool fb_mesh = false;        // the app enabled XR_FB_hand_tracking_mesh (its hand scale override)
   LayerConfig config;
   std::unique_ptr<HandTuning> tuning;  // per-hand smoothing and horizon, live
 
@@ -143,6 +145,9 @@ struct TrackerData {
   // Created accepting a controller as the hand's source (XR_EXT_hand_tracking_data_source):
   // each answer's source is asked for, and a controller's hand passes through.
   bool controller_source = false;
+  // The hand scale the app last asked the runtime for (XR_FB_hand_tracking_mesh's
+  // override; 0: the runtime's own): another scale is another hand's shape.
+  std::atomic<float> scale_asked{0.0f};
   std::unique_ptr<Recording> recording;
   int serial = 0;
 };
@@ -351,7 +356,7 @@ bool none_tracked_but_valid(const XrHandJointLocationEXT* joints) noexcept {
 // The runtime's joints of tracker t in the layer's world space at `time` (NaN rows: not
 // tracked). Velocities into `vel` when given. False when the runtime fails.
 bool locate_world(const TrackerData& t, const XrHandJointsLocateInfoEXT& app_info, XrTime time, Pose& pose,
-                  std::array<XrHandJointVelocityEXT, kMaxJoints>* vel) noexcept {
+                  std::array<XrHandJointVelocityEXT, kMaxJoints>* vel, const XrHandTrackingScaleFB* app_scale) noexcept {
   std::array<XrHandJointLocationEXT, kMaxJoints> wj{};
   XrHandJointVelocitiesEXT wv{XR_TYPE_HAND_JOINT_VELOCITIES_EXT, nullptr, t.joint_count, vel ? vel->data() : nullptr};
   XrHandJointLocationsEXT wl{XR_TYPE_HAND_JOINT_LOCATIONS_EXT, vel ? &wv : nullptr, XR_FALSE, t.joint_count, wj.data()};
@@ -359,6 +364,13 @@ bool locate_world(const TrackerData& t, const XrHandJointsLocateInfoEXT& app_inf
   XrHandTrackingDataSourceStateEXT source{XR_TYPE_HAND_TRACKING_DATA_SOURCE_STATE_EXT, wl.next, XR_FALSE,
                                           XR_HAND_TRACKING_DATA_SOURCE_UNOBSTRUCTED_EXT};
   if (t.controller_source) wl.next = &source;
+  // The hand at the scale the app asked the runtime for, as in the app's answers.
+  XrHandTrackingScaleFB scale{XR_TYPE_HAND_TRACKING_SCALE_FB, wl.next, 0.0f, 0.0f, XR_FALSE, 0.0f};
+  if (app_scale) {
+    scale.overrideHandScale = app_scale->overrideHandScale;
+    scale.overrideValueInput = app_scale->overrideValueInput;
+    wl.next = &scale;
+  }
   XrHandJointsLocateInfoEXT wi{XR_TYPE_HAND_JOINTS_LOCATE_INFO_EXT, app_info.next, t.world, time};
   const XrResult res = t.inst->LocateHandJointsEXT(t.handle, &wi, &wl);
   if (XR_FAILED(res)) {
@@ -437,6 +449,8 @@ void filter_answer(TrackerData& t, const XrHandJointsLocateInfoEXT& info, XrHand
   TrackerFilter* filter = t.filters[state_index].get();
   if (!filter) return;
   auto* app_vel = find_in_chain<XrHandJointVelocitiesEXT, XR_TYPE_HAND_JOINT_VELOCITIES_EXT>(out.next);
+  const auto* app_scale =
+      inst.fb_mesh ? find_in_chain<XrHandTrackingScaleFB, XR_TYPE_HAND_TRACKING_SCALE_FB>(out.next) : nullptr;
   if (app_vel && (app_vel->jointCount != t.joint_count || !app_vel->jointVelocities)) app_vel = nullptr;
   const int hand = t.hand == XR_HAND_LEFT_EXT ? 0 : 1;
   const bool predict = inst.config.mode == Mode::Predict;
@@ -471,7 +485,8 @@ void filter_answer(TrackerData& t, const XrHandJointsLocateInfoEXT& info, XrHand
       have_sample = true;
     }
   }
-  if (!have_sample && !locate_world(t, info, sample_time, observed, app_vel && same_time ? &wvj : nullptr)) return;
+  if (!have_sample && !locate_world(t, info, sample_time, observed, app_vel && same_time ? &wvj : nullptr, app_scale))
+    return;
   const bool any = any_joint_tracked(observed);
 
   // Is this a new sample, and what time is it from? Probe the runtime's time semantics now and then.
@@ -489,7 +504,7 @@ void filter_answer(TrackerData& t, const XrHandJointsLocateInfoEXT& info, XrHand
   }
   if (probe && any && sample_time - SemanticsProbe::kProbeOffsetNs > 0) {
     Pose earlier;
-    if (locate_world(t, info, sample_time - SemanticsProbe::kProbeOffsetNs, earlier, nullptr)) {
+    if (locate_world(t, info, sample_time - SemanticsProbe::kProbeOffsetNs, earlier, nullptr, app_scale)) {
       std::lock_guard lock(t.sample_mu);
       t.probe.vote(observed, earlier, fresh);
       t.semantics.store(t.probe.semantics(), std::memory_order_relaxed);
@@ -591,6 +606,21 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
       for (const auto& f : t->filters)
         if (f) f->source_changed(last);
     } else {
+      // A hand scale the app asks for anew (XR_FB_hand_tracking_mesh) reshapes the hand at
+      // once: a new hand for the engine, which otherwise bridges the jump as motion.
+      const auto* scale = t->inst->fb_mesh
+                              ? find_in_chain<XrHandTrackingScaleFB, XR_TYPE_HAND_TRACKING_SCALE_FB>(out->next)
+                              : nullptr;
+      const float asked = scale && scale->overrideHandScale ? scale->overrideValueInput : 0.0f;
+      const float before_asked = t->scale_asked.exchange(asked, std::memory_order_relaxed);
+      if (!(std::abs(asked - before_asked) < 1e-4f)) {
+        log_once(g_logged_scale, LogLevel::Info,
+                 "the app changed the hand scale it asks the runtime for (XR_FB_hand_tracking_mesh): filtering "
+                 "restarts at the new scale");
+        const XrTime last = t->last_stamp.load(std::memory_order_relaxed);
+        for (const auto& f : t->filters)
+          if (f) f->source_changed(last);
+      }
       // Checked only until said: no joint scan per call once logged.
       if (!g_logged_untracked.load(std::memory_order_relaxed) && none_tracked_but_valid(out->jointLocations))
         log_once(g_logged_untracked, LogLevel::Info,
@@ -792,7 +822,7 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateApiLayerInstance(const XrInstanceCreateInfo
   // Our own extension is ours to answer: the layers and runtime below never see it.
   std::vector<const char*> down_extensions;
   bool raw_joints = false, app_timespec = false, hand_tracking = false, data_source = false, fb_capsules = false,
-       fb_aim = false;
+       fb_aim = false, fb_mesh = false;
   try {
     for (uint32_t i = 0; i < info->enabledExtensionCount; ++i) {
       const std::string_view name(info->enabledExtensionNames[i]);
@@ -805,6 +835,7 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateApiLayerInstance(const XrInstanceCreateInfo
       if (name == XR_EXT_HAND_TRACKING_DATA_SOURCE_EXTENSION_NAME) data_source = true;
       if (name == XR_FB_HAND_TRACKING_CAPSULES_EXTENSION_NAME) fb_capsules = true;
       if (name == XR_FB_HAND_TRACKING_AIM_EXTENSION_NAME) fb_aim = true;
+      if (name == XR_FB_HAND_TRACKING_MESH_EXTENSION_NAME) fb_mesh = true;
       down_extensions.push_back(info->enabledExtensionNames[i]);
     }
     // The runtime's clock for the layer, when the runtime has it (else created without).
@@ -838,6 +869,7 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateApiLayerInstance(const XrInstanceCreateInfo
     d->data_source = data_source;
     d->fb_capsules = fb_capsules;
     d->fb_aim = fb_aim;
+    d->fb_mesh = fb_mesh;
     d->raw_joints = raw_joints && d->hand_tracking;
     d->app_timespec = app_timespec;
     if (have_timespec) load(*d, "xrConvertTimespecTimeToTimeKHR", d->ConvertTimespecTimeToTimeKHR);

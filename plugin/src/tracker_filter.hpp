@@ -90,10 +90,11 @@ class TrackerFilter {
   // rather than answer from the old space. Any thread; the newest announcement counts.
   void space_changed(XrTime change_time) noexcept { space_change_.store(change_time, std::memory_order_release); }
 
-  // The runtime's hand came from another source (a controller, XR_EXT_hand_tracking_data_source)
-  // after time `after`: the first sample newer than it restarts the engine as a new hand
-  // (another source places and shapes the hand its own way), and until it has, queries
-  // after it pass the runtime through. Any thread; the newest call counts.
+  // The runtime's hand came from another source (a controller, XR_EXT_hand_tracking_data_source),
+  // or at another scale the app asked for (XR_FB_hand_tracking_mesh), after time `after`:
+  // the first sample newer than it restarts the engine as a new hand (another source places
+  // and shapes the hand its own way), and until it has, queries after it pass the runtime
+  // through. Any thread; the newest call counts.
   void source_changed(XrTime after) noexcept {
     source_change_.store(after < std::numeric_limits<XrTime>::max() ? after + 1 : after, std::memory_order_release);
   }

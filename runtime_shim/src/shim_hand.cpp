@@ -116,6 +116,16 @@ void inject_joint_faults(const FaultRates& f, XrTime t, int h, XrHandJointLocati
   }
 }
 
+Pose scaled_about_wrist(const Pose& p, double scale) {
+  if (scale == 1.0) return p;
+  const int root = joint_tracked(p, idx(Joint::Wrist)) ? idx(Joint::Wrist) : idx(Joint::Palm);
+  if (!joint_tracked(p, root)) return p;
+  const Eigen::RowVector3d c = p.row(root);
+  Pose out = p;
+  for (int j = 0; j < kJointCount; ++j) out.row(j) = c + (p.row(j) - c) * scale;
+  return out;
+}
+
 void fill_capsules(const XrHandJointLocationEXT* joints, XrHandTrackingCapsulesStateFB& capsules) {
   constexpr std::array<int, XR_FB_HAND_TRACKING_CAPSULE_COUNT> kBones = {
       XR_HAND_JOINT_THUMB_METACARPAL_EXT,  XR_HAND_JOINT_THUMB_PROXIMAL_EXT,       XR_HAND_JOINT_THUMB_DISTAL_EXT,

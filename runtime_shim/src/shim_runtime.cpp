@@ -70,7 +70,7 @@ struct Runtime {
   bool live = false;
   XrInstance instance = XR_NULL_HANDLE;
   bool ext_hand = false, ext_headless = false, ext_timespec = false, ext_data_source = false, ext_forearm = false,
-       ext_capsules = false, ext_aim = false;
+       ext_capsules = false, ext_aim = false, ext_mesh = false;
   ShimConfig cfg;
   std::array<HandSeries, 2> hands;
   std::array<HandSeries, 2> controller_hands;  // the recording uncorrupted, where a controller places it
@@ -205,12 +205,13 @@ struct ExtensionInfo {
   const char* name;
   uint32_t version;
 };
-constexpr std::array<ExtensionInfo, 7> kExtensions = {{
+constexpr std::array<ExtensionInfo, 8> kExtensions = {{
     {XR_EXT_HAND_TRACKING_EXTENSION_NAME, XR_EXT_hand_tracking_SPEC_VERSION},
     {XR_EXT_HAND_TRACKING_DATA_SOURCE_EXTENSION_NAME, XR_EXT_hand_tracking_data_source_SPEC_VERSION},
     {XR_ULTRALEAP_HAND_TRACKING_FOREARM_EXTENSION_NAME, XR_ULTRALEAP_hand_tracking_forearm_SPEC_VERSION},
     {XR_FB_HAND_TRACKING_CAPSULES_EXTENSION_NAME, XR_FB_hand_tracking_capsules_SPEC_VERSION},
     {XR_FB_HAND_TRACKING_AIM_EXTENSION_NAME, XR_FB_hand_tracking_aim_SPEC_VERSION},
+    {XR_FB_HAND_TRACKING_MESH_EXTENSION_NAME, XR_FB_hand_tracking_mesh_SPEC_VERSION},
     {XR_MND_HEADLESS_EXTENSION_NAME, XR_MND_headless_SPEC_VERSION},
     {XR_KHR_CONVERT_TIMESPEC_TIME_EXTENSION_NAME, XR_KHR_convert_timespec_time_SPEC_VERSION},
 }};
@@ -243,7 +244,7 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateInstance(const XrInstanceCreateInfo* info, 
   std::lock_guard lock(r.mu);
   if (r.live) return XR_ERROR_LIMIT_REACHED;
   bool hand = false, headless = false, timespec = false, data_source = false, forearm = false, capsules = false,
-       aim = false;
+       aim = false, mesh = false;
   for (uint32_t i = 0; i < info->enabledExtensionCount; ++i) {
     const std::string_view name = info->enabledExtensionNames[i];
     if (name == XR_EXT_HAND_TRACKING_EXTENSION_NAME) hand = true;
@@ -251,6 +252,7 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateInstance(const XrInstanceCreateInfo* info, 
     else if (name == XR_ULTRALEAP_HAND_TRACKING_FOREARM_EXTENSION_NAME) forearm = true;
     else if (name == XR_FB_HAND_TRACKING_CAPSULES_EXTENSION_NAME) capsules = true;
     else if (name == XR_FB_HAND_TRACKING_AIM_EXTENSION_NAME) aim = true;
+    else if (name == XR_FB_HAND_TRACKING_MESH_EXTENSION_NAME) mesh = true;
     else if (name == XR_MND_HEADLESS_EXTENSION_NAME) headless = true;
     else if (name == XR_KHR_CONVERT_TIMESPEC_TIME_EXTENSION_NAME) timespec = true;
     else return XR_ERROR_EXTENSION_NOT_PRESENT;
@@ -292,6 +294,7 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateInstance(const XrInstanceCreateInfo* info, 
   r.ext_forearm = forearm;
   r.ext_capsules = capsules;
   r.ext_aim = aim;
+  r.ext_mesh = mesh;
   r.sessions.clear();
   r.spaces.clear();
   r.trackers.clear();
@@ -723,7 +726,9 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
   XrHandTrackingDataSourceStateEXT* source = nullptr;
   XrHandTrackingCapsulesStateFB* capsules = nullptr;
   XrHandTrackingAimStateFB* aim = nullptr;
+  XrHandTrackingScaleFB* scale = nullptr;
   for (auto* s = static_cast<XrBaseOutStructure*>(out->next); s; s = s->next) {
+    if (s->type == XR_TYPE_HAND_TRACKING_SCALE_FB && r.ext_mesh) scale = reinterpret_cast<XrHandTrackingScaleFB*>(s);
     if (s->type == XR_TYPE_HAND_TRACKING_CAPSULES_STATE_FB && r.ext_capsules)
       capsules = reinterpret_cast<XrHandTrackingCapsulesStateFB*>(s);
     if (s->type == XR_TYPE_HAND_TRACKING_AIM_STATE_FB && r.ext_aim) aim = reinterpret_cast<XrHandTrackingAimStateFB*>(s);
@@ -734,6 +739,17 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
   if (vel && (vel->jointCount != count || !vel->jointVelocities)) return XR_ERROR_VALIDATION_FAILURE;
   // The extension: the state only for a tracker created with the sources it accepts.
   if (source && !tr->second.source_info) return XR_ERROR_VALIDATION_FAILURE;
+  // XR_FB_hand_tracking_mesh: the hand at the scale the app asks for (the track's own is 1).
+  double hand_scale = 1.0;
+  if (scale && scale->overrideHandScale) {
+    if (!(std::isfinite(scale->overrideValueInput) && scale->overrideValueInput > 0.0f))
+      return XR_ERROR_VALIDATION_FAILURE;
+    hand_scale = scale->overrideValueInput;
+  }
+  if (scale) {
+    scale->sensorOutput = 1.0f;
+    scale->currentOutput = static_cast<float>(hand_scale);
+  }
 
   const XrHandEXT hand = tr->second.hand;
   const XrTime now = now_locked(r);
@@ -741,7 +757,8 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
   const bool from_controller = r.cfg.controller && r.cfg.controller->contains(track_time(r, info->time));
   const bool accepted = from_controller ? tr->second.controller : tr->second.unobstructed;
   const auto& series = (from_controller ? r.controller_hands : r.hands)[hand == XR_HAND_LEFT_EXT ? 0 : 1];
-  const Pose world = accepted ? replayed_hand(series, r.cfg, r.clock, info->time, now) : untracked_pose();
+  const Pose world =
+      accepted ? scaled_about_wrist(replayed_hand(series, r.cfg, r.clock, info->time, now), hand_scale) : untracked_pose();
   if (source) {
     source->isActive = accepted ? XR_TRUE : XR_FALSE;
     source->dataSource =
@@ -792,7 +809,8 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
     // The later time saturates near INT64_MAX (apps may ask any time).
     const XrTime t0 = info->time - h;
     const XrTime t1 = info->time > std::numeric_limits<XrTime>::max() - h ? info->time : info->time + h;
-    const Pose w0 = replayed_hand(series, r.cfg, r.clock, t0, now), w1 = replayed_hand(series, r.cfg, r.clock, t1, now);
+    const Pose w0 = scaled_about_wrist(replayed_hand(series, r.cfg, r.clock, t0, now), hand_scale),
+               w1 = scaled_about_wrist(replayed_hand(series, r.cfg, r.clock, t1, now), hand_scale);
     joints_in_base(t0, w0, p0, r0);
     joints_in_base(t1, w1, p1, r1);
     for (int j = 0; j < static_cast<int>(count); ++j) {
@@ -813,6 +831,44 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
   return XR_SUCCESS;
 }
 
+// XR_FB_hand_tracking_mesh: the skeleton only (no vertices, no indices): the joints'
+// bind poses from the hand's first fully tracked row, its wrist at the origin, the frames
+// and radii the tracker answers with, the parents of the joint tree.
+XRAPI_ATTR XrResult XRAPI_CALL GetHandMeshFB(XrHandTrackerEXT tracker, XrHandTrackingMeshFB* mesh) {
+  Runtime& r = rt();
+  std::lock_guard lock(r.mu);
+  const auto tr = r.trackers.find(id_of(tracker));
+  if (tr == r.trackers.end()) return XR_ERROR_HANDLE_INVALID;
+  if (!mesh || mesh->type != XR_TYPE_HAND_TRACKING_MESH_FB) return XR_ERROR_VALIDATION_FAILURE;
+  mesh->jointCountOutput = kJointCount;
+  mesh->vertexCountOutput = 0;
+  mesh->indexCountOutput = 0;
+  if (mesh->jointCapacityInput == 0) return XR_SUCCESS;
+  if (mesh->jointCapacityInput < static_cast<uint32_t>(kJointCount)) return XR_ERROR_SIZE_INSUFFICIENT;
+  if (!mesh->jointBindPoses || !mesh->jointRadii || !mesh->jointParents) return XR_ERROR_VALIDATION_FAILURE;
+  const bool left = tr->second.hand == XR_HAND_LEFT_EXT;
+  const HandSeries& series = r.hands[left ? 0 : 1];
+  Pose bind = untracked_pose();
+  for (const Pose& p : series.pos)
+    if (p.allFinite()) {
+      bind = p;
+      break;
+    }
+  bind = with_valid_positions(bind);
+  if (!bind.allFinite()) bind.setZero();
+  const Eigen::RowVector3d wrist = bind.row(idx(Joint::Wrist));
+  for (int j = 0; j < kJointCount; ++j) bind.row(j) -= wrist;
+  const auto frames = joint_frames(bind, left);
+  for (int j = 0; j < kJointCount; ++j) {
+    mesh->jointBindPoses[j].position = xr::to_xr(Eigen::Vector3d(bind.row(j).transpose()));
+    mesh->jointBindPoses[j].orientation = xr::to_xr(Eigen::Quaterniond(frames[static_cast<size_t>(j)]).normalized());
+    mesh->jointRadii[j] = joint_radius(j);
+    const int parent = kXrParent[static_cast<size_t>(j)];
+    mesh->jointParents[j] = parent < 0 ? XR_HAND_JOINT_MAX_ENUM_EXT : static_cast<XrHandJointEXT>(parent);
+  }
+  return XR_SUCCESS;
+}
+
 // ---------------------------------------------------------------- dispatch
 
 XRAPI_ATTR XrResult XRAPI_CALL GetInstanceProcAddr(XrInstance instance, const char* name, PFN_xrVoidFunction* fn);
@@ -820,7 +876,7 @@ XRAPI_ATTR XrResult XRAPI_CALL GetInstanceProcAddr(XrInstance instance, const ch
 struct Entry {
   std::string_view name;
   PFN_xrVoidFunction fn;
-  int extension;  // 0 core, 1 hand tracking, 2 timespec
+  int extension;  // 0 core, 1 hand tracking, 2 timespec, 3 hand mesh (XR_FB_hand_tracking_mesh)
 };
 #define HS_ENTRY(name, ext) {"xr" #name, reinterpret_cast<PFN_xrVoidFunction>(&name), ext}
 const Entry kEntries[] = {
@@ -833,7 +889,7 @@ const Entry kEntries[] = {
     HS_ENTRY(BeginFrame, 0), HS_ENTRY(EndFrame, 0), HS_ENTRY(EnumerateReferenceSpaces, 0),
     HS_ENTRY(CreateReferenceSpace, 0), HS_ENTRY(DestroySpace, 0), HS_ENTRY(LocateSpace, 0),
     HS_ENTRY(CreateHandTrackerEXT, 1), HS_ENTRY(DestroyHandTrackerEXT, 1), HS_ENTRY(LocateHandJointsEXT, 1),
-    HS_ENTRY(ConvertTimespecTimeToTimeKHR, 2), HS_ENTRY(ConvertTimeToTimespecTimeKHR, 2),
+    HS_ENTRY(ConvertTimespecTimeToTimeKHR, 2), HS_ENTRY(ConvertTimeToTimespecTimeKHR, 2), HS_ENTRY(GetHandMeshFB, 3),
 };
 #undef HS_ENTRY
 
@@ -857,7 +913,8 @@ XRAPI_ATTR XrResult XRAPI_CALL GetInstanceProcAddr(XrInstance instance, const ch
   if (!instance_ok(r, instance)) return XR_ERROR_HANDLE_INVALID;
   for (const Entry& e : kEntries) {
     if (e.name != n) continue;
-    if ((e.extension == 1 && !r.ext_hand) || (e.extension == 2 && !r.ext_timespec)) break;
+    if ((e.extension == 1 && !r.ext_hand) || (e.extension == 2 && !r.ext_timespec) || (e.extension == 3 && !r.ext_mesh))
+      break;
     *fn = e.fn;
     return XR_SUCCESS;
   }

@@ -15,17 +15,20 @@ using namespace hs::xrtest;
 
 namespace {
 
-// One answer with everything an app may chain: velocities, Meta's capsules and aim.
+// One answer with everything an app may chain: velocities, Meta's capsules, aim and hand
+// scale (overridden).
 struct Answer {
   std::array<XrHandJointLocationEXT, XR_HAND_JOINT_COUNT_EXT> loc{};
   std::array<XrHandJointVelocityEXT, XR_HAND_JOINT_COUNT_EXT> vel{};
   XrHandTrackingCapsulesStateFB capsules{};
   XrHandTrackingAimStateFB aim{};
+  XrHandTrackingScaleFB scale{};
 };
 
 XrResult locate_all(const App& app, XrHandEXT hand, XrTime time, Answer& a) {
+  a.scale = {XR_TYPE_HAND_TRACKING_SCALE_FB, nullptr, 0.0f, 0.0f, XR_TRUE, 1.1f};
   a.aim.type = XR_TYPE_HAND_TRACKING_AIM_STATE_FB;
-  a.aim.next = nullptr;
+  a.aim.next = &a.scale;
   a.capsules.type = XR_TYPE_HAND_TRACKING_CAPSULES_STATE_FB;
   a.capsules.next = &a.aim;
   XrHandJointVelocitiesEXT vel{XR_TYPE_HAND_JOINT_VELOCITIES_EXT, &a.capsules, XR_HAND_JOINT_COUNT_EXT, a.vel.data()};
@@ -59,7 +62,8 @@ TEST_CASE("once a tracker runs, locating its joints allocates nothing (layer, lo
         else unset_env("HANDSTEADY_METHOD");  // the shipped model, the default
         if (engine == "stgae-lockstep") set_env("HANDSTEADY_WORKER", "lockstep");
         enable_layers({kLayer});
-        App app(true, {XR_FB_HAND_TRACKING_CAPSULES_EXTENSION_NAME, XR_FB_HAND_TRACKING_AIM_EXTENSION_NAME});
+        App app(true, {XR_FB_HAND_TRACKING_CAPSULES_EXTENSION_NAME, XR_FB_HAND_TRACKING_AIM_EXTENSION_NAME,
+                       XR_FB_HAND_TRACKING_MESH_EXTENSION_NAME});
         Answer a;
         long failed = 0, answered = 0;
         for (int i = 0; i < 60; ++i) {  // warm: the engine's first answers, every log said once

@@ -734,6 +734,94 @@ TEST_CASE("Meta's hand capsules and aim (XR_FB_hand_tracking_capsules, _aim) mov
   }
 }
 
+// An answer at the hand scale `scale` asks the runtime for (XR_FB_hand_tracking_mesh).
+Joints locate_scaled(PFN_xrLocateHandJointsEXT fn, XrHandTrackerEXT tracker, XrSpace base, XrTime time, float scale,
+                     XrHandTrackingScaleFB* state = nullptr) {
+  Joints r;
+  XrHandTrackingScaleFB own{XR_TYPE_HAND_TRACKING_SCALE_FB, nullptr, 0.0f, 0.0f, XR_TRUE, scale};
+  XrHandTrackingScaleFB& s = state ? *state : own;
+  s = own;
+  XrHandJointLocationsEXT out{XR_TYPE_HAND_JOINT_LOCATIONS_EXT, &s, XR_FALSE, XR_HAND_JOINT_COUNT_EXT, r.loc.data()};
+  XrHandJointsLocateInfoEXT info{XR_TYPE_HAND_JOINTS_LOCATE_INFO_EXT, nullptr, base, time};
+  r.result = fn(tracker, &info, &out);
+  r.active = out.isActive;
+  return r;
+}
+
+// Mean distance of the joints from the wrist: the hand's size.
+double hand_spread(const Joints& j) {
+  double sum = 0.0;
+  const Eigen::Vector3d w = xr::to_eigen(j.loc[XR_HAND_JOINT_WRIST_EXT].pose.position);
+  for (const auto& l : j.loc) sum += (xr::to_eigen(l.pose.position) - w).norm();
+  return sum / static_cast<double>(j.loc.size());
+}
+
+TEST_CASE("an app's hand scale (XR_FB_hand_tracking_mesh's override) is the scale the layer filters at") {
+  // The app asks the runtime for its hand at 1.0, then at 1.25 of the tracked size. The
+  // layer's own queries (earlier times when predicting, the time-semantics probe) carried
+  // no scale before: when predicting, the engine saw the unscaled hand and answered it, a
+  // hand 20 % too small; and the step to the new scale was bridged as motion.
+  const TrackFiles f = make_tracks("scale", 2.0);
+  constexpr int kChange = 90;
+  each_engine_and_mode(f, [] {}, [&](const std::string& engine, const std::string& mode) {
+    App app(true, {XR_NOVENDOR_HANDSTEADY_RAW_JOINTS_EXTENSION_NAME, XR_FB_HAND_TRACKING_MESH_EXTENSION_NAME});
+    const auto raw = app.raw_locate();
+    {
+      // The extension's function reaches the runtime: its skeleton (no mesh vertices).
+      PFN_xrVoidFunction fn = nullptr;
+      REQUIRE(xrGetInstanceProcAddr(app.instance, "xrGetHandMeshFB", &fn) == XR_SUCCESS);
+      const auto get_mesh = reinterpret_cast<PFN_xrGetHandMeshFB>(fn);
+      XrHandTrackingMeshFB mesh{};
+      mesh.type = XR_TYPE_HAND_TRACKING_MESH_FB;
+      REQUIRE(get_mesh(app.trackers[1], &mesh) == XR_SUCCESS);
+      CHECK(mesh.jointCountOutput == XR_HAND_JOINT_COUNT_EXT);
+      std::array<XrPosef, XR_HAND_JOINT_COUNT_EXT> bind{};
+      std::array<float, XR_HAND_JOINT_COUNT_EXT> radii{};
+      std::array<XrHandJointEXT, XR_HAND_JOINT_COUNT_EXT> parents{};
+      mesh.jointCapacityInput = XR_HAND_JOINT_COUNT_EXT;
+      mesh.jointBindPoses = bind.data();
+      mesh.jointRadii = radii.data();
+      mesh.jointParents = parents.data();
+      REQUIRE(get_mesh(app.trackers[1], &mesh) == XR_SUCCESS);
+      CHECK(parents[XR_HAND_JOINT_INDEX_TIP_EXT] == XR_HAND_JOINT_INDEX_DISTAL_EXT);
+      CHECK(xr::to_eigen(bind[XR_HAND_JOINT_WRIST_EXT].position).norm() == 0.0);
+    }
+    // The hand's size against the runtime's, averaged over a phase (the runtime's answers'
+    // noise moves the ratio by several % from frame to frame).
+    std::array<double, 2> size_sum{};
+    std::array<long, 2> size_n{};
+    double worst_after = 0.0;
+    long answers = 0;
+    XrHandTrackingScaleFB state{};
+    for (int i = 0; i < 170; ++i) {
+      const XrTime T = app.frame();
+      const float scale = i < kChange ? 1.0f : 1.25f;
+      for (XrHandEXT hand : {XR_HAND_LEFT_EXT, XR_HAND_RIGHT_EXT}) {
+        const Joints j = locate_scaled(app.locate_joints, app.trackers[hand - 1], app.local, T, scale, &state);
+        const Joints r = locate_scaled(raw, app.trackers[hand - 1], app.local, T, scale);
+        REQUIRE(j.result == XR_SUCCESS);
+        REQUIRE(r.result == XR_SUCCESS);
+        REQUIRE(j.active);
+        CHECK(state.currentOutput == scale);  // the runtime's answer through the layer
+        if (i >= kChange && i < kChange + 3) worst_after = std::max(worst_after, max_deviation(j, r));
+        ++answers;
+        if (i < 30 || (i >= kChange && i < kChange + 30)) continue;  // the starts' blend-in
+        const size_t phase = i < kChange ? 0 : 1;
+        size_sum[phase] += hand_spread(j) / hand_spread(r);
+        ++size_n[phase];
+      }
+    }
+    const double before = size_sum[0] / static_cast<double>(size_n[0]), after = size_sum[1] / static_cast<double>(size_n[1]);
+    MESSAGE(engine << " " << mode << ": the hand's size over the runtime's " << before << " at scale 1, " << after
+                   << " at 1.25; the first answers at the new scale up to " << worst_after * 1e3 << " mm from the runtime's");
+    CHECK(answers == 340);
+    CHECK(std::abs(before - 1.0) < 0.02);
+    CHECK(std::abs(after - 1.0) < 0.02);
+    CHECK(worst_after < 1e-3);
+    app.shutdown();
+  });
+}
+
 TEST_CASE("a recentred LOCAL (reference space change pending): answers in STAGE show no transient") {
   // At 2 s the runtime moves LOCAL (the layer's world space) by 6 cm and 8 degrees, as a
   // user's "reset view" does: the hand seems to jump 7-9 cm in LOCAL, a step the engine
