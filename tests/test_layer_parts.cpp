@@ -517,6 +517,33 @@ TEST_CASE("forearm: the elbow moves with the wrist's correction and is never gar
   CHECK(vel[kJointCount].velocityFlags == 0);
 }
 
+TEST_CASE("the base located from the runtime's joints in both spaces (xrLocateSpace failed)") {
+  const Pose world = hand_at(0.1, 0.05);
+  const xr::Rigid base_from_world = Eigen::Translation3d(0.2, -0.1, 0.4) *
+                                    Eigen::AngleAxisd(0.7, Eigen::Vector3d(0.3, 1.0, -0.2).normalized());
+  Pose in_base = world;
+  for (int j = 0; j < kJointCount; ++j) in_base.row(j) = (base_from_world * Eigen::Vector3d(world.row(j).transpose())).transpose();
+  auto joints = tracked_joints(in_base);
+  JointMask garbage{};
+  xr::Rigid fit;
+  REQUIRE(fit_base_from_world(joints.data(), garbage, world, fit));
+  CHECK((fit.matrix() - base_from_world.matrix()).cwiseAbs().maxCoeff() < 1e-5);
+  // Garbage and untracked joints are left out of the fit.
+  joints[3].pose.position = {1e30f, 0.0f, 0.0f};
+  garbage[3] = true;
+  joints[4].locationFlags = XR_SPACE_LOCATION_POSITION_VALID_BIT;
+  joints[4].pose.position.x += 0.05f;
+  REQUIRE(fit_base_from_world(joints.data(), garbage, world, fit));
+  CHECK((fit.matrix() - base_from_world.matrix()).cwiseAbs().maxCoeff() < 1e-5);
+  // Answers that are not the same hand (a joint 2 cm off), or too few joints: no fit.
+  auto moved = joints;
+  moved[12].pose.position.y += 0.02f;
+  CHECK_FALSE(fit_base_from_world(moved.data(), garbage, world, fit));
+  Pose few = world;
+  for (int j = 3; j < kJointCount; ++j) few.row(j).setConstant(std::numeric_limits<double>::quiet_NaN());
+  CHECK_FALSE(fit_base_from_world(joints.data(), garbage, few, fit));
+}
+
 TEST_CASE("Meta's capsules and aim: moved with their joint's rigid change, never garbage") {
   JointsBefore before;
   const auto runtime = tracked_joints(hand_at(0.1));

@@ -3,6 +3,8 @@
 #include "handsteady/skeleton.hpp"
 #include "joint_gate.hpp"
 
+#include <Eigen/SVD>
+
 #include <algorithm>
 #include <cmath>
 
@@ -163,6 +165,48 @@ int rewrite_forearm(const XrVector3f& wrist_before, XrHandJointLocationEXT* join
     changed += repair_velocity(velocities[j]);
   }
   return changed;
+}
+
+bool fit_base_from_world(const XrHandJointLocationEXT* base_joints, const JointMask& garbage, const Pose& world,
+                         xr::Rigid& base_from_world) noexcept {
+  std::array<Eigen::Vector3d, kJointCount> a, b;  // world, base
+  int n = 0;
+  for (int j = 0; j < kJointCount; ++j) {
+    const Eigen::Vector3d w = world.row(j).transpose(), p = xr::to_eigen(base_joints[j].pose.position);
+    if (garbage[static_cast<size_t>(j)] || (base_joints[j].locationFlags & kTracked) != kTracked || !w.allFinite() ||
+        !(w.norm() < 1e3) || !p.allFinite() || !(p.norm() < 1e3))
+      continue;
+    a[static_cast<size_t>(n)] = w;
+    b[static_cast<size_t>(n)] = p;
+    ++n;
+  }
+  if (n < 4) return false;
+  Eigen::Vector3d ca = Eigen::Vector3d::Zero(), cb = Eigen::Vector3d::Zero();
+  for (int k = 0; k < n; ++k) {
+    ca += a[static_cast<size_t>(k)];
+    cb += b[static_cast<size_t>(k)];
+  }
+  ca /= n;
+  cb /= n;
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  double spread = 0.0;
+  for (int k = 0; k < n; ++k) {
+    cov += (b[static_cast<size_t>(k)] - cb) * (a[static_cast<size_t>(k)] - ca).transpose();
+    spread = std::max(spread, (a[static_cast<size_t>(k)] - ca).norm());
+  }
+  if (!(spread >= 0.01)) return false;
+  // Kabsch: the rotation taking the world's joints onto the base's (no reflection).
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(cov, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d d = Eigen::Matrix3d::Identity();
+  d(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0.0 ? -1.0 : 1.0;
+  const Eigen::Matrix3d R = svd.matrixU() * d * svd.matrixV().transpose();
+  xr::Rigid fit = xr::Rigid::Identity();
+  fit.linear() = R;
+  fit.translation() = cb - R * ca;
+  for (int k = 0; k < n; ++k)
+    if (!((fit * a[static_cast<size_t>(k)] - b[static_cast<size_t>(k)]).norm() < 1e-3)) return false;
+  base_from_world = fit;
+  return true;
 }
 
 RewriteStats rewrite_joints(const Answer& answer, double smoothing, const xr::Rigid& base_from_world,

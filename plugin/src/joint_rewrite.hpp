@@ -34,6 +34,13 @@ struct RewriteStats {
 using JointMask = std::array<bool, kJointCount>;
 JointMask garbage_joints(const XrHandJointLocationEXT* joints) noexcept;
 
+// The base space's pose in the layer's world space from the runtime's answers of the same
+// hand at the same time in both (the app's in the base, `world` in the world): the rigid
+// fit of the joints tracked and not garbage in both. For when xrLocateSpace fails. False
+// unless at least 4 joints, spread over 1 cm or more, fit within 1 mm.
+bool fit_base_from_world(const XrHandJointLocationEXT* base_joints, const JointMask& garbage, const Pose& world,
+                         xr::Rigid& base_from_world) noexcept;
+
 // max_offset_m: an estimate whose hand centre is farther than this from the runtime's
 // (a hand re-acquired elsewhere that the engine has not seen yet) replaces nothing.
 // While the engine blends in after a (re)start (answer.weight < 1) its offset from the

@@ -79,7 +79,8 @@ std::atomic<bool> g_logged_internal{false}, g_logged_world_space{false}, g_logge
     g_logged_world_locate{false}, g_logged_record{false}, g_logged_engine{false}, g_logged_space_garbage{false},
     g_logged_latest{false}, g_logged_time{false}, g_logged_repaired{false}, g_logged_garbage{false},
     g_logged_recentre{false}, g_logged_untracked{false}, g_logged_controller{false},
-    g_logged_joint_set{false}, g_logged_fb_garbage{false}, g_logged_scale{false};
+    g_logged_joint_set{false}, g_logged_fb_garbage{false}, g_logged_scale{false},
+    g_logged_fit_base{false};
 
 // ---------------------------------------------------------------- state
 
@@ -375,7 +376,8 @@ bool locate_world(const TrackerData& t, const XrHandJointsLocateInfoEXT& app_inf
   const XrResult res = t.inst->LocateHandJointsEXT(t.handle, &wi, &wl);
   if (XR_FAILED(res)) {
     log_once(g_logged_world_locate, LogLevel::Warn,
-             fmt::format("runtime failed to locate joints in the layer's space (result {}): passing through",
+             fmt::format("runtime failed to locate joints in the layer's space (result {}): no sample; answered "
+                         "from the filter's estimate while it reaches, else passing through",
                          static_cast<int>(res)));
     return false;
   }
@@ -403,14 +405,17 @@ bool locate_base(const InstanceData& inst, XrSpace world, XrSpace base, XrTime t
   constexpr XrSpaceLocationFlags need = XR_SPACE_LOCATION_POSITION_VALID_BIT | XR_SPACE_LOCATION_ORIENTATION_VALID_BIT;
   if (XR_FAILED(res)) {
     log_once(g_logged_locate_space, LogLevel::Warn,
-             fmt::format("xrLocateSpace failed (result {}): passing through", static_cast<int>(res)));
+             fmt::format("xrLocateSpace failed (result {}): the base located from the runtime's joints, else passing "
+                         "through",
+                         static_cast<int>(res)));
     return false;
   }
   if ((loc.locationFlags & need) != need) return false;
   if (!xr::finite(loc.pose.position) || !(xr::to_eigen(loc.pose.position).norm() < 1e4) ||
       !xr::usable(loc.pose.orientation)) {
     log_once(g_logged_space_garbage, LogLevel::Warn,
-             "xrLocateSpace answered an impossible pose flagged valid: those answers pass through");
+             "xrLocateSpace answered an impossible pose flagged valid: the base located from the runtime's joints, "
+             "else passing through");
     return false;
   }
   base_from_world = xr::to_rigid(loc.pose);
@@ -485,8 +490,11 @@ void filter_answer(TrackerData& t, const XrHandJointsLocateInfoEXT& info, XrHand
       have_sample = true;
     }
   }
-  if (!have_sample && !locate_world(t, info, sample_time, observed, app_vel && same_time ? &wvj : nullptr, app_scale))
-    return;
+  // A query of the layer's own that the runtime fails is no sample: the engine answers from
+  // what it has, as in a frame without a new sample, while its path reaches.
+  const bool world_sampled =
+      have_sample || locate_world(t, info, sample_time, observed, app_vel && same_time ? &wvj : nullptr, app_scale);
+  if (!world_sampled) observed.setConstant(std::numeric_limits<double>::quiet_NaN());
   const bool any = any_joint_tracked(observed);
 
   // Is this a new sample, and what time is it from? Probe the runtime's time semantics now and then.
@@ -538,8 +546,22 @@ void filter_answer(TrackerData& t, const XrHandJointsLocateInfoEXT& info, XrHand
   if (!have) return;
 
   if (!base_tried) based = locate_base(inst, t.world, info.baseSpace, info.time, base_from_world, motion);
-  if (!based) return;
-  if (!motion.valid && same_time) motion.world_velocities = wvj.data();
+  bool world_velocities = same_time;  // wvj holds the runtime's world velocities at the asked time
+  if (!based) {
+    // xrLocateSpace failed or answered garbage: the base's pose from the runtime's joints
+    // at the asked time in both spaces (the world's: the sample itself, or one more query).
+    Pose world_now;
+    const Pose* at_time = same_time && world_sampled ? &observed : nullptr;
+    if (!at_time && locate_world(t, info, info.time, world_now, app_vel ? &wvj : nullptr, app_scale)) {
+      at_time = &world_now;
+      world_velocities = app_vel != nullptr;
+    }
+    if (!at_time || !fit_base_from_world(out.jointLocations, garbage, *at_time, base_from_world)) return;
+    motion = BaseMotion{};
+    log_once(g_logged_fit_base, LogLevel::Info,
+             "xrLocateSpace failed: the app's base space located from the runtime's joints in both spaces");
+  }
+  if (!motion.valid && world_velocities) motion.world_velocities = wvj.data();
   // Where the runtime's hand is not where the engine's is (re-acquired elsewhere, not yet
   // seen by the engine), the runtime's answer stands: no hand moves 8 cm beyond its
   // prediction in one answer.

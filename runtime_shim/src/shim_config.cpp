@@ -158,6 +158,8 @@ ShimConfig shim_config_from_env() {
       else if (kind == "radius") c.faults.radius = p;
       else if (kind == "collapse") c.faults.collapse = p;
       else if (kind == "untracked") c.faults.untracked = p;
+      else if (kind == "error") c.faults.error = p;
+      else if (kind == "space_error") c.faults.space_error = p;
       else throw std::invalid_argument("HANDSTEADY_SHIM_FAULTS: unknown fault '" + kind + "'");
     }
   }

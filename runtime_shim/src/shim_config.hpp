@@ -33,6 +33,8 @@ struct FaultRates {
   double radius = 0.0;    // per joint: radius becomes NaN, infinite, negative or 1e30 (position flags valid)
   double collapse = 0.0;  // per hand and answered time: every joint at the palm's position (flags valid)
   double untracked = 0.0; // per hand and answered time: every joint valid but not tracked (inferred)
+  double error = 0.0;     // per hand and asked time: xrLocateHandJointsEXT fails (XR_ERROR_RUNTIME_FAILURE)
+  double space_error = 0.0;  // per xrLocateSpace call (spaces and time): it fails (XR_ERROR_RUNTIME_FAILURE)
 };
 
 // LOCAL recentred once (as a user's "reset view" does): from track time at_s on, LOCAL's

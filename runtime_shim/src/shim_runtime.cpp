@@ -635,6 +635,11 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateSpace(XrSpace space, XrSpace baseSpace, XrT
   if (a == r.spaces.end() || b == r.spaces.end()) return XR_ERROR_HANDLE_INVALID;
   if (!location || location->type != XR_TYPE_SPACE_LOCATION) return XR_ERROR_VALIDATION_FAILURE;
   if (time <= 0) return XR_ERROR_TIME_INVALID;
+  // Injected fault: the call fails now and then.
+  if (r.cfg.faults.space_error > 0.0 &&
+      fault_draw(time, static_cast<int>(id_of(space) & 0xff), static_cast<int>(id_of(baseSpace) & 0xff), 14) <
+          r.cfg.faults.space_error)
+    return XR_ERROR_RUNTIME_FAILURE;
   const double t = track_time(r, time);
   location->pose = xr::to_xr(space_in_world(r, b->second, t).inverse() * space_in_world(r, a->second, t));
   location->locationFlags = XR_SPACE_LOCATION_ORIENTATION_VALID_BIT | XR_SPACE_LOCATION_POSITION_VALID_BIT |
@@ -752,6 +757,9 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
   }
 
   const XrHandEXT hand = tr->second.hand;
+  // Injected fault: the call fails now and then (the same hand and time fail every time).
+  if (r.cfg.faults.error > 0.0 && fault_draw(info->time, hand == XR_HAND_LEFT_EXT ? 0 : 1, 0, 15) < r.cfg.faults.error)
+    return XR_ERROR_RUNTIME_FAILURE;
   const XrTime now = now_locked(r);
   // The source at the asked time, and whether the tracker accepts it (else no hand).
   const bool from_controller = r.cfg.controller && r.cfg.controller->contains(track_time(r, info->time));

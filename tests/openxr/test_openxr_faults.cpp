@@ -822,6 +822,85 @@ TEST_CASE("an app's hand scale (XR_FB_hand_tracking_mesh's override) is the scal
   });
 }
 
+TEST_CASE("a runtime whose calls fail now and then: its errors reach the app as they are, the rest is filtered") {
+  // HANDSTEADY_SHIM_FAULTS error: xrLocateHandJointsEXT fails for 10 % of (hand, time),
+  // the app's calls and the layer's own alike; space_error: xrLocateSpace for 10 % of calls.
+  // Before, a failure of the layer's own queries passed that answer through unfiltered
+  // (a jump to the runtime's noisy or stale hand and back).
+  const TrackFiles f = make_tracks("errors", 2.0);
+  constexpr int kFrames = 170, kSkip = 30;
+  struct Run {
+    std::vector<Joints> answers, raws;
+    std::vector<XrTime> times;
+  };
+  const auto run = [&](const std::string& engine, const std::string& mode, bool errors) {
+    reset_env(f);
+    if (errors) set_env("HANDSTEADY_SHIM_FAULTS", "error:0.1,space_error:0.1");
+    select_engine(engine, mode);
+    enable_layers({kLayer});
+    App app(true, kRawExt);
+    Run out;
+    for (int i = 0; i < kFrames; ++i) {
+      const XrTime T = app.frame();
+      out.times.push_back(T);
+      for (XrHandEXT hand : {XR_HAND_LEFT_EXT, XR_HAND_RIGHT_EXT}) {
+        out.answers.push_back(app.locate(hand, app.local, T));
+        out.raws.push_back(app.locate_raw(hand, app.local, T));
+      }
+    }
+    app.shutdown();
+    return out;
+  };
+  for (const std::string engine : {"classical", "stgae"})
+    for (const std::string mode : {"denoise", "predict"}) {
+      CAPTURE(engine);
+      CAPTURE(mode);
+      const Run clean = run(engine, mode, false), faulty = run(engine, mode, true);
+      long failed = 0, result_differs = 0, scored = 0;
+      double err_faulty = 0.0, err_clean = 0.0, err_raw = 0.0;
+      for (size_t k = 0; k < faulty.answers.size(); ++k) {
+        const Joints &j = faulty.answers[k], &r = faulty.raws[k];
+        result_differs += j.result != r.result;  // the runtime's own result, as it is
+        failed += j.result != XR_SUCCESS;
+        const size_t frame = k / 2;
+        if (j.result != XR_SUCCESS || frame < kSkip || !j.active || !r.active) continue;
+        // Scored against the truth where the app got an answer, beside the same run without failures.
+        const XrHandEXT hand = k % 2 == 0 ? XR_HAND_LEFT_EXT : XR_HAND_RIGHT_EXT;
+        const Pose truth = interpolate_pose(f.clean_series[hand - 1], track_time(f, faulty.times[frame]));
+        REQUIRE(clean.times[frame] == faulty.times[frame]);
+        err_faulty += mean_error(j, truth);
+        err_clean += mean_error(clean.answers[k], truth);
+        err_raw += mean_error(r, truth);
+        ++scored;
+      }
+      // Jitter: the answers' second difference over three successive answered frames.
+      const auto jitter = [&](const std::vector<Joints>& a) {
+        double sum = 0.0;
+        long count = 0;
+        for (size_t k = 2 * (kSkip + 1); k + 2 < a.size(); ++k) {
+          const Joints &p = a[k - 2], &c = a[k], &q = a[k + 2];
+          if (p.result != XR_SUCCESS || c.result != XR_SUCCESS || q.result != XR_SUCCESS) continue;
+          for (int m = 0; m < kJointCount; ++m)
+            sum += (xr::to_eigen(q.loc[m].pose.position) - 2.0 * xr::to_eigen(c.loc[m].pose.position) +
+                    xr::to_eigen(p.loc[m].pose.position)).norm();
+          count += kJointCount;
+        }
+        return sum / static_cast<double>(std::max<long>(count, 1));
+      };
+      const double jitter_faulty = jitter(faulty.answers), jitter_clean = jitter(clean.answers);
+      const double n = static_cast<double>(std::max<long>(scored, 1));
+      MESSAGE(engine << " " << mode << ": " << failed << " of " << faulty.answers.size() << " calls failed; error "
+                     << err_faulty / n * 1e3 << " mm with the failures, " << err_clean / n * 1e3 << " without, runtime "
+                     << err_raw / n * 1e3 << "; jitter " << jitter_faulty * 1e3 << " mm with the failures, "
+                     << jitter_clean * 1e3 << " without");
+      CHECK(result_differs == 0);
+      CHECK(failed > 20);
+      CHECK(err_faulty < 1.1 * err_clean);
+      CHECK(jitter_faulty < 1.1 * jitter_clean);
+      if (mode == "denoise") CHECK(err_faulty < 0.9 * err_raw);
+    }
+}
+
 TEST_CASE("a recentred LOCAL (reference space change pending): answers in STAGE show no transient") {
   // At 2 s the runtime moves LOCAL (the layer's world space) by 6 cm and 8 degrees, as a
   // user's "reset view" does: the hand seems to jump 7-9 cm in LOCAL, a step the engine
