@@ -122,9 +122,12 @@ ShimConfig shim_config_from_env() {
   if (std::string s = env("HANDSTEADY_SHIM_RECENTER"); !s.empty()) {
     std::vector<double> v;
     for (const std::string& item : split_commas(s)) v.push_back(parse_number(item, "HANDSTEADY_SHIM_RECENTER"));
-    if (v.size() != 5 || !std::isfinite(v[0] + v[1] + v[2] + v[3] + v[4]))
-      throw std::invalid_argument("HANDSTEADY_SHIM_RECENTER: expected <track_s>,<dx_m>,<dy_m>,<dz_m>,<yaw_deg>, got '" +
-                                  s + "'");
+    // Finite, an offset within 1 km and a yaw within a turn (a larger one overflowed to an
+    // infinite angle in the conversion to radians: LOCAL's pose NaN).
+    if (v.size() != 5 || !std::isfinite(v[0] + v[1] + v[2] + v[3] + v[4]) ||
+        !(Eigen::Vector3d(v[1], v[2], v[3]).norm() <= 1e3) || !(std::abs(v[4]) <= 360.0))
+      throw std::invalid_argument("HANDSTEADY_SHIM_RECENTER: expected <track_s>,<dx_m>,<dy_m>,<dz_m>,<yaw_deg> (offset "
+                                  "within 1 km, yaw within 360 degrees), got '" + s + "'");
     Recenter rc;
     rc.at_s = v[0];
     rc.offset_m = Eigen::Vector3d(v[1], v[2], v[3]);

@@ -74,7 +74,7 @@ struct ShimConfig {
   bool space_velocity = true;    // HANDSTEADY_SHIM_SPACE_VELOCITY=0: xrLocateSpace answers no XrSpaceVelocity
   std::optional<Recenter> recenter;  // HANDSTEADY_SHIM_RECENTER=<track_s>,<dx_m>,<dy_m>,<dz_m>,<yaw_deg>
   std::optional<ControllerSpan> controller;  // HANDSTEADY_SHIM_CONTROLLER=<from_track_s>,<to_track_s>
-  FaultRates faults;             // HANDSTEADY_SHIM_FAULTS=nan:<p>,huge:<p>,quat:<p>,origin:<p>,space:<p>,velocity:<p>,radius:<p>,collapse:<p>,untracked:<p>
+  FaultRates faults;             // HANDSTEADY_SHIM_FAULTS=nan:<p>,huge:<p>,...,error:<p>,space_error:<p> (FaultRates)
 };
 
 // Throws std::invalid_argument naming the variable on malformed values.

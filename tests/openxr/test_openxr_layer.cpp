@@ -513,7 +513,10 @@ TEST_CASE("the replay runtime refuses a configuration it cannot use, naming the 
   const std::vector<std::pair<std::string, std::string>> bad = {
       {"HANDSTEADY_SHIM_CORRUPT", "tracker:inf"}, {"HANDSTEADY_SHIM_CORRUPT", "tracker:1e30"},
       {"HANDSTEADY_SHIM_CORRUPT", "tracker:-1"},  {"HANDSTEADY_SHIM_CONTROLLER", "2,1"},
-      {"HANDSTEADY_SHIM_CONTROLLER", "1"},        {"HANDSTEADY_SHIM_CONTROLLER", "0,nan"}};
+      {"HANDSTEADY_SHIM_CONTROLLER", "1"},        {"HANDSTEADY_SHIM_CONTROLLER", "0,nan"},
+      // A yaw whose conversion to radians overflowed (found by fuzz_replay_env), an offset beyond 1 km.
+      {"HANDSTEADY_SHIM_RECENTER", "2,0.06,0,0,1e308"}, {"HANDSTEADY_SHIM_RECENTER", "2,1e4,0,0,8"},
+      {"HANDSTEADY_SHIM_FAULTS", "error:2"}};
   for (const auto& [name, value] : bad) {
     CAPTURE(name);
     CAPTURE(value);

@@ -1,0 +1,60 @@
+// libFuzzer target for the OpenXR layer's environment variables (docs/OPENXR_LAYER.md
+// "Configuration"): the input is lines NAME=value; each of the layer's variables named
+// gets that value (the others are cleared), then the layer reads its configuration as at
+// xrCreateInstance (read_layer_config) and its live per-hand settings
+// (load_hand_settings). Any values must give a configuration in the documented ranges,
+// with warnings for what is ignored; never a throw, crash, hang or leak. HANDSTEADY_CONFIG
+// (a file: fuzz_layer_config covers its text) is never set, and no engine is chosen, so
+// no model is loaded.
+#include "layer_config.hpp"
+
+#include "handsteady/stgae_filter.hpp"
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <cstdlib>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace {
+constexpr std::array<const char*, 21> kVariables = {
+    "HANDSTEADY_MODE",          "HANDSTEADY_METHOD",           "HANDSTEADY_MODEL",
+    "HANDSTEADY_RATE_MODELS",   "HANDSTEADY_HORIZON_MS",       "HANDSTEADY_STGAE_PHASES",
+    "HANDSTEADY_PALM_FIT",      "HANDSTEADY_BONE_FIT",         "HANDSTEADY_TREMOR_CANCEL",
+    "HANDSTEADY_PREDICTION_SMOOTHING", "HANDSTEADY_CORRECTION_GAIN", "HANDSTEADY_OSCILLATION_GUARD",
+    "HANDSTEADY_LOG",           "HANDSTEADY_RECORD",           "HANDSTEADY_WORKER",
+    "HANDSTEADY_MAX_HORIZON_MS", "HANDSTEADY_SMOOTHING",       "HANDSTEADY_LEFT_SMOOTHING",
+    "HANDSTEADY_RIGHT_SMOOTHING", "HANDSTEADY_LEFT_HORIZON_MS", "HANDSTEADY_RIGHT_HORIZON_MS"};
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  unsetenv("HANDSTEADY_CONFIG");
+  for (const char* v : kVariables) unsetenv(v);
+  const std::string_view text(reinterpret_cast<const char*>(data), size);
+  for (size_t from = 0; from < text.size();) {
+    const size_t end = std::min(text.find('\n', from), text.size());
+    const std::string_view line = text.substr(from, end - from);
+    from = end + 1;
+    const size_t eq = line.find('=');
+    if (eq == std::string_view::npos) continue;
+    const std::string name(line.substr(0, eq)), value(line.substr(eq + 1));
+    if (value.find('\0') != std::string::npos) continue;  // no environment value holds one
+    for (const char* v : kVariables)
+      if (name == v) setenv(v, value.c_str(), 1);
+  }
+  const hs::layer::LoadedConfig loaded = hs::layer::read_layer_config();
+  const hs::layer::LayerConfig& c = loaded.config;
+  std::vector<std::string> warnings;
+  const auto hands = hs::layer::load_hand_settings(warnings);
+  // The documented ranges hold whatever the variables say (bad values keep the defaults).
+  auto horizon_ok = [](std::int64_t ns) { return ns >= 0 && ns <= 500'000'000; };
+  bool ok = horizon_ok(c.horizon_ns) && horizon_ok(c.max_horizon_ns) && c.filter.stgae.phases >= 0 &&
+            c.filter.stgae.phases <= hs::kStgaeMaxPhases && !c.filter.stgae.model;
+  for (const auto& h : c.hands)
+    ok = ok && horizon_ok(h.horizon_ns) && h.horizon_ns <= c.max_horizon_ns && h.smoothing >= 0.0 && h.smoothing <= 1.0;
+  for (const auto& h : hands) ok = ok && horizon_ok(h.horizon_ns) && h.smoothing >= 0.0 && h.smoothing <= 1.0;
+  if (!ok) __builtin_trap();
+  return 0;
+}
