@@ -574,6 +574,14 @@ void filter_answer(TrackerData& t, const XrHandJointsLocateInfoEXT& info, XrHand
              "the runtime reported impossible joint positions as tracked: answered with the filter's estimate");
 }
 
+// The runtime's hand is another from now on (another source, another scale): every
+// motion range's engine restarts on the first sample after the last one fed.
+void restart_as_new_hand(TrackerData& t) noexcept {
+  const XrTime last = t.last_stamp.load(std::memory_order_relaxed);
+  for (const auto& f : t.filters)
+    if (f) f->source_changed(last);
+}
+
 XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, const XrHandJointsLocateInfoEXT* info,
                                                    XrHandJointLocationsEXT* out) noexcept {
   const auto t = find_shared(reg().trackers, tracker);
@@ -624,9 +632,7 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
       log_once(g_logged_controller, LogLevel::Info,
                "the runtime's hand comes from a controller (XR_EXT_hand_tracking_data_source): passed through "
                "unfiltered; filtering restarts when it comes from hand tracking again");
-      const XrTime last = t->last_stamp.load(std::memory_order_relaxed);
-      for (const auto& f : t->filters)
-        if (f) f->source_changed(last);
+      restart_as_new_hand(*t);
     } else {
       // A hand scale the app asks for anew (XR_FB_hand_tracking_mesh) reshapes the hand at
       // once: a new hand for the engine, which otherwise bridges the jump as motion.
@@ -639,9 +645,7 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
         log_once(g_logged_scale, LogLevel::Info,
                  "the app changed the hand scale it asks the runtime for (XR_FB_hand_tracking_mesh): filtering "
                  "restarts at the new scale");
-        const XrTime last = t->last_stamp.load(std::memory_order_relaxed);
-        for (const auto& f : t->filters)
-          if (f) f->source_changed(last);
+        restart_as_new_hand(*t);
       }
       // Checked only until said: no joint scan per call once logged.
       if (!g_logged_untracked.load(std::memory_order_relaxed) && none_tracked_but_valid(out->jointLocations))

@@ -6,6 +6,7 @@
 // with warnings for what is ignored; never a throw, crash, hang or leak. HANDSTEADY_CONFIG
 // (a file: fuzz_layer_config covers its text) is never set, and no engine is chosen, so
 // no model is loaded.
+#include "fuzz_env.hpp"
 #include "layer_config.hpp"
 
 #include "handsteady/stgae_filter.hpp"
@@ -31,19 +32,7 @@ constexpr std::array<const char*, 21> kVariables = {
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   unsetenv("HANDSTEADY_CONFIG");
-  for (const char* v : kVariables) unsetenv(v);
-  const std::string_view text(reinterpret_cast<const char*>(data), size);
-  for (size_t from = 0; from < text.size();) {
-    const size_t end = std::min(text.find('\n', from), text.size());
-    const std::string_view line = text.substr(from, end - from);
-    from = end + 1;
-    const size_t eq = line.find('=');
-    if (eq == std::string_view::npos) continue;
-    const std::string name(line.substr(0, eq)), value(line.substr(eq + 1));
-    if (value.find('\0') != std::string::npos) continue;  // no environment value holds one
-    for (const char* v : kVariables)
-      if (name == v) setenv(v, value.c_str(), 1);
-  }
+  hs::fuzz::set_env_from_lines(std::string_view(reinterpret_cast<const char*>(data), size), kVariables);
   const hs::layer::LoadedConfig loaded = hs::layer::read_layer_config();
   const hs::layer::LayerConfig& c = loaded.config;
   std::vector<std::string> warnings;

@@ -4,6 +4,7 @@
 // outcomes: a configuration in range, or std::invalid_argument naming the variable
 // (xrCreateInstance then fails); never another exception, a crash, a hang or a leak. The
 // track file named is not read here (read_track_csv has its own fuzzer).
+#include "fuzz_env.hpp"
 #include "shim_config.hpp"
 
 #include <array>
@@ -26,19 +27,7 @@ bool in_unit(double p) { return p >= 0.0 && p <= 1.0; }
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  for (const char* v : kVariables) unsetenv(v);
-  const std::string_view text(reinterpret_cast<const char*>(data), size);
-  for (size_t from = 0; from < text.size();) {
-    const size_t end = std::min(text.find('\n', from), text.size());
-    const std::string_view line = text.substr(from, end - from);
-    from = end + 1;
-    const size_t eq = line.find('=');
-    if (eq == std::string_view::npos) continue;
-    const std::string name(line.substr(0, eq)), value(line.substr(eq + 1));
-    if (value.find('\0') != std::string::npos) continue;  // no environment value holds one
-    for (const char* v : kVariables)
-      if (name == v) setenv(v, value.c_str(), 1);
-  }
+  hs::fuzz::set_env_from_lines(std::string_view(reinterpret_cast<const char*>(data), size), kVariables);
   hs::shim::ShimConfig c;
   try {
     c = hs::shim::shim_config_from_env();
