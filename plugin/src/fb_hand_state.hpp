@@ -23,9 +23,10 @@ struct JointsBefore {
 // Each capsule moves with its joint's rigid change (runtime's pose -> the app's answer):
 // the capsule keeps the runtime's length and radius and lies along the answered bone.
 // A capsule no hand has (a point non-finite, beyond 1 km or 30 cm from its joint; a joint
-// that is no hand joint) collapses onto its joint's answered position (the palm's where
-// its joint is unknown); a radius no hand has (non-finite, negative, 10 cm or more)
-// becomes its joint's. Returns the number of repairs.
+// that is no hand joint) collapses onto its joint's answered position, valid or not (the
+// palm's where the joint is unknown or its position no place: non-finite, beyond 1 km);
+// a radius no hand has (non-finite, negative, 10 cm or more) becomes its joint's. Returns
+// the number of repairs.
 int move_capsules(const JointsBefore& before, const XrHandJointLocationEXT* after,
                   XrHandTrackingCapsulesStateFB& capsules) noexcept;
 
