@@ -1,7 +1,7 @@
 #include "handsteady/correction_bound.hpp"
 #include "handsteady/palm_fit.hpp"
 #include "handsteady/time_series.hpp"
-#include "rigid_fit.hpp"
+#include "handsteady/rigid_fit.hpp"
 
 #include <algorithm>
 #include <cmath>

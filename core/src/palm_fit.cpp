@@ -1,5 +1,5 @@
 #include "handsteady/palm_fit.hpp"
-#include "rigid_fit.hpp"
+#include "handsteady/rigid_fit.hpp"
 
 #include <Eigen/Dense>
 

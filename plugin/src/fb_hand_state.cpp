@@ -11,8 +11,6 @@ namespace {
 constexpr double kMaxNormM = 1e3;            // as garbage_joints: no hand is a kilometre away
 constexpr double kMaxCapsuleFromJointM = 0.3;  // a capsule spans one bone, at most ~10 cm
 constexpr double kMaxAimFromPalmM = 0.5;     // the aim's origin is on or near the hand
-constexpr float kMaxRadius = 0.1f;           // as repair_garbage's
-constexpr float kDefaultRadius = 0.01f;
 
 bool position_usable(const XrHandJointLocationEXT& loc) noexcept {
   return (loc.locationFlags & XR_SPACE_LOCATION_POSITION_VALID_BIT) && xr::finite(loc.pose.position);
@@ -70,8 +68,8 @@ int move_capsules(const JointsBefore& before, const XrHandJointLocationEXT* afte
       for (XrVector3f& p : c.points) p = anchor ? xr::to_xr(*anchor) : XrVector3f{0.0f, 0.0f, 0.0f};
       ++changed;
     }
-    if (!(c.radius >= 0.0f && c.radius < kMaxRadius)) {
-      c.radius = joint.radius >= 0.0f && joint.radius < kMaxRadius ? joint.radius : kDefaultRadius;
+    if (!radius_usable(c.radius)) {
+      c.radius = radius_usable(joint.radius) ? joint.radius : kDefaultRadius;
       ++changed;
     }
   }

@@ -1,9 +1,8 @@
 #include "joint_rewrite.hpp"
 
+#include "handsteady/rigid_fit.hpp"
 #include "handsteady/skeleton.hpp"
 #include "joint_gate.hpp"
-
-#include <Eigen/SVD>
 
 #include <algorithm>
 #include <cmath>
@@ -13,16 +12,7 @@ namespace {
 constexpr XrSpaceLocationFlags kTracked = XR_SPACE_LOCATION_POSITION_VALID_BIT | XR_SPACE_LOCATION_POSITION_TRACKED_BIT;
 constexpr double kMaxSpeed = 50.0;         // m/s: no joint of a hand moves faster
 constexpr double kMaxAngularSpeed = 1000.0;  // rad/s: beyond noisy joint frames (tracker jitter over 2 cm bones)
-// A joint's radius where its position is valid: no joint of a human hand is 10 cm thick,
-// and a NaN or negative one breaks what an app computes with it. 0 (against
-// XR_EXT_hand_tracking, which asks for a positive radius) is a runtime that gives none:
-// kept, not replaced by an invented one. Fallbacks where no joint's radius is usable:
-// about a finger's half-thickness, a little less at the tips.
-constexpr float kMaxRadius = 0.1f;
-constexpr float kDefaultRadius = 0.01f;
-constexpr float kDefaultTipRadius = 0.008f;
-
-bool radius_usable(float r) noexcept { return r >= 0.0f && r < kMaxRadius; }  // false for NaN too
+constexpr float kDefaultTipRadius = 0.008f;  // a little less than kDefaultRadius at the tips
 
 // A velocity no joint has (non-finite, over 50 m/s or 1000 rad/s) loses its valid bit.
 int repair_velocity(XrHandJointVelocityEXT& v) noexcept {
@@ -170,41 +160,31 @@ int rewrite_forearm(const XrVector3f& wrist_before, XrHandJointLocationEXT* join
 bool fit_base_from_world(const XrHandJointLocationEXT* base_joints, const JointMask& garbage, const Pose& world,
                          xr::Rigid& base_from_world) noexcept {
   std::array<Eigen::Vector3d, kJointCount> a, b;  // world, base
+  std::array<bool, kJointCount> use{};
   int n = 0;
   for (int j = 0; j < kJointCount; ++j) {
-    const Eigen::Vector3d w = world.row(j).transpose(), p = xr::to_eigen(base_joints[j].pose.position);
-    if (garbage[static_cast<size_t>(j)] || (base_joints[j].locationFlags & kTracked) != kTracked || !w.allFinite() ||
-        !(w.norm() < 1e3) || !p.allFinite() || !(p.norm() < 1e3))
-      continue;
-    a[static_cast<size_t>(n)] = w;
-    b[static_cast<size_t>(n)] = p;
-    ++n;
+    const size_t k = static_cast<size_t>(j);
+    a[k] = world.row(j).transpose();
+    b[k] = xr::to_eigen(base_joints[j].pose.position);
+    use[k] = !garbage[k] && (base_joints[j].locationFlags & kTracked) == kTracked && a[k].allFinite() &&
+             a[k].norm() < 1e3 && b[k].allFinite() && b[k].norm() < 1e3;
+    n += use[k];
   }
   if (n < 4) return false;
-  Eigen::Vector3d ca = Eigen::Vector3d::Zero(), cb = Eigen::Vector3d::Zero();
-  for (int k = 0; k < n; ++k) {
-    ca += a[static_cast<size_t>(k)];
-    cb += b[static_cast<size_t>(k)];
-  }
+  Eigen::Vector3d ca = Eigen::Vector3d::Zero();
+  for (size_t k = 0; k < use.size(); ++k)
+    if (use[k]) ca += a[k];
   ca /= n;
-  cb /= n;
-  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
   double spread = 0.0;
-  for (int k = 0; k < n; ++k) {
-    cov += (b[static_cast<size_t>(k)] - cb) * (a[static_cast<size_t>(k)] - ca).transpose();
-    spread = std::max(spread, (a[static_cast<size_t>(k)] - ca).norm());
-  }
-  if (!(spread >= 0.01)) return false;
-  // Kabsch: the rotation taking the world's joints onto the base's (no reflection).
-  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(cov, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  Eigen::Matrix3d d = Eigen::Matrix3d::Identity();
-  d(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0.0 ? -1.0 : 1.0;
-  const Eigen::Matrix3d R = svd.matrixU() * d * svd.matrixV().transpose();
+  for (size_t k = 0; k < use.size(); ++k)
+    if (use[k]) spread = std::max(spread, (a[k] - ca).norm());
+  hs::Rigid r;  // the rotation and translation taking the world's joints onto the base's
+  if (!(spread >= 0.01) || !hs::kabsch(a, b, use, r, false)) return false;
   xr::Rigid fit = xr::Rigid::Identity();
-  fit.linear() = R;
-  fit.translation() = cb - R * ca;
-  for (int k = 0; k < n; ++k)
-    if (!((fit * a[static_cast<size_t>(k)] - b[static_cast<size_t>(k)]).norm() < 1e-3)) return false;
+  fit.linear() = r.r;
+  fit.translation() = r.t;
+  for (size_t k = 0; k < use.size(); ++k)
+    if (use[k] && !((fit * a[k] - b[k]).norm() < 1e-3)) return false;
   base_from_world = fit;
   return true;
 }

@@ -28,6 +28,15 @@ struct RewriteStats {
   bool diverged = false;  // the estimate is not where the runtime's hand is: nothing replaced
 };
 
+// A joint's radius where its position is valid: no joint of a human hand is 10 cm thick,
+// and a NaN or negative one breaks what an app computes with it. 0 (against
+// XR_EXT_hand_tracking, which asks for a positive radius) is a runtime that gives none:
+// kept, not replaced by an invented one. The fallback where no joint's radius is usable:
+// about a finger's half-thickness.
+inline constexpr float kMaxRadius = 0.1f;
+inline constexpr float kDefaultRadius = 0.01f;
+inline bool radius_usable(float r) noexcept { return r >= 0.0f && r < kMaxRadius; }  // false for NaN too
+
 // Joints of the runtime's answer whose position no hand can have (non-finite, at the
 // exact origin or denormal, beyond 1 km, far from the rest of the hand; all of a hand
 // collapsed onto a point or a line), flagged tracked.

@@ -56,11 +56,11 @@ void inject_joint_faults(const FaultRates& f, XrTime t, int hand, XrHandJointLoc
 // from its joint to the next, its joint's radius; the aim at the index finger's proximal
 // joint, oriented as the palm, valid with the hand, pinch strengths from the thumb tip's
 // distance to each fingertip (1 at 1 cm, 0 from 5 cm; pinching from 0.9).
+void fill_capsules(const XrHandJointLocationEXT* joints, XrHandTrackingCapsulesStateFB& capsules);
+void fill_aim(const XrHandJointLocationEXT* joints, XrHandTrackingAimStateFB& aim);
+
 // XR_FB_hand_tracking_mesh's scale: the hand scaled about its wrist (rows without a wrist:
 // about the palm; untracked joints stay NaN).
 Pose scaled_about_wrist(const Pose& p, double scale);
-
-void fill_capsules(const XrHandJointLocationEXT* joints, XrHandTrackingCapsulesStateFB& capsules);
-void fill_aim(const XrHandJointLocationEXT* joints, XrHandTrackingAimStateFB& aim);
 
 }  // namespace hs::shim

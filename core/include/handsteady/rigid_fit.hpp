@@ -1,7 +1,8 @@
 #pragma once
 // A similarity (rotation, translation, uniform scale) fitted by least squares to matched
 // points (Kabsch, with Umeyama's scale): the palm fit's template onto a row, and the trust
-// region's frames onto each other. Internal to hs_core.
+// region's frames onto each other, and the app's base space onto the layer's world
+// (plugin/src/joint_rewrite.cpp, when xrLocateSpace fails).
 #include <Eigen/Dense>
 
 #include <algorithm>
