@@ -443,9 +443,10 @@ void world_from_answer(const XrHandJointLocationEXT* joints, const JointMask& ga
 }
 
 // Replaces the runtime's answer in `out` (already filled for the app) by the engine's.
-// Returns without touching `out` whenever something needed is missing.
+// Returns without touching `out` whenever something needed is missing. app_scale: the
+// app's XrHandTrackingScaleFB in `out`'s chain (XR_FB_hand_tracking_mesh), or nullptr.
 void filter_answer(TrackerData& t, const XrHandJointsLocateInfoEXT& info, XrHandJointLocationsEXT& out,
-                   JointMask& garbage) noexcept {
+                   const XrHandTrackingScaleFB* app_scale, JointMask& garbage) noexcept {
   const InstanceData& inst = *t.inst;
   const auto* range =
       find_in_chain<XrHandJointsMotionRangeInfoEXT, XR_TYPE_HAND_JOINTS_MOTION_RANGE_INFO_EXT>(info.next);
@@ -454,8 +455,6 @@ void filter_answer(TrackerData& t, const XrHandJointsLocateInfoEXT& info, XrHand
   TrackerFilter* filter = t.filters[state_index].get();
   if (!filter) return;
   auto* app_vel = find_in_chain<XrHandJointVelocitiesEXT, XR_TYPE_HAND_JOINT_VELOCITIES_EXT>(out.next);
-  const auto* app_scale =
-      inst.fb_mesh ? find_in_chain<XrHandTrackingScaleFB, XR_TYPE_HAND_TRACKING_SCALE_FB>(out.next) : nullptr;
   if (app_vel && (app_vel->jointCount != t.joint_count || !app_vel->jointVelocities)) app_vel = nullptr;
   const int hand = t.hand == XR_HAND_LEFT_EXT ? 0 : 1;
   const bool predict = inst.config.mode == Mode::Predict;
@@ -653,7 +652,7 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
                  "the runtime reported an active hand with valid joints but none tracked (no "
                  "XR_SPACE_LOCATION_POSITION_TRACKED_BIT): the layer filters tracked joints only, such answers pass "
                  "through unfiltered");
-      filter_answer(*t, *info, *out, garbage);
+      filter_answer(*t, *info, *out, scale, garbage);
     }
     // Whatever the layer could not replace is never handed over as garbage.
     auto* vel = find_in_chain<XrHandJointVelocitiesEXT, XR_TYPE_HAND_JOINT_VELOCITIES_EXT>(out->next);
