@@ -32,9 +32,9 @@ XrResult locate_all(const App& app, XrHandEXT hand, XrTime time, Answer& a) {
   a.capsules.type = XR_TYPE_HAND_TRACKING_CAPSULES_STATE_FB;
   a.capsules.next = &a.aim;
   XrHandJointVelocitiesEXT vel{XR_TYPE_HAND_JOINT_VELOCITIES_EXT, &a.capsules, XR_HAND_JOINT_COUNT_EXT, a.vel.data()};
-  XrHandJointLocationsEXT out{XR_TYPE_HAND_JOINT_LOCATIONS_EXT, &vel, XR_FALSE, XR_HAND_JOINT_COUNT_EXT, a.loc.data()};
-  XrHandJointsLocateInfoEXT info{XR_TYPE_HAND_JOINTS_LOCATE_INFO_EXT, nullptr, app.view, time};
-  return app.locate_joints(app.trackers[hand - 1], &info, &out);
+  XrBool32 active = XR_FALSE;
+  return locate_chained(app.locate_joints, app.trackers[hand - 1], app.view, time, &vel, XR_HAND_JOINT_COUNT_EXT,
+                        a.loc.data(), active);
 }
 
 }  // namespace

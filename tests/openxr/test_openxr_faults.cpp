@@ -518,18 +518,6 @@ TEST_CASE("a hand from a controller (XR_EXT_hand_tracking_data_source) passes th
 }
 
 // A tracker of XR_ULTRALEAP_hand_tracking_forearm's joint set: the hand's 26 joints and the elbow.
-// One xrLocateHandJointsEXT call of `fn` for `tracker`'s `N` joints into `loc`, with
-// `next` chained to the answer; the result, and whether the hand is active into `active`.
-template <size_t N>
-XrResult locate_chained(PFN_xrLocateHandJointsEXT fn, XrHandTrackerEXT tracker, XrSpace base, XrTime time, void* next,
-                        std::array<XrHandJointLocationEXT, N>& loc, XrBool32& active) {
-  XrHandJointLocationsEXT out{XR_TYPE_HAND_JOINT_LOCATIONS_EXT, next, XR_FALSE, static_cast<uint32_t>(N), loc.data()};
-  XrHandJointsLocateInfoEXT info{XR_TYPE_HAND_JOINTS_LOCATE_INFO_EXT, nullptr, base, time};
-  const XrResult res = fn(tracker, &info, &out);
-  active = out.isActive;
-  return res;
-}
-
 struct ForearmJoints {
   XrResult result = XR_ERROR_RUNTIME_FAILURE;
   XrBool32 active = XR_FALSE;
@@ -541,7 +529,7 @@ ForearmJoints locate_forearm(PFN_xrLocateHandJointsEXT fn, XrHandTrackerEXT trac
   ForearmJoints r;
   XrHandJointVelocitiesEXT vel{XR_TYPE_HAND_JOINT_VELOCITIES_EXT, nullptr, XR_HAND_FOREARM_JOINT_COUNT_ULTRALEAP,
                                r.vel.data()};
-  r.result = locate_chained(fn, tracker, base, time, &vel, r.loc, r.active);
+  r.result = locate_chained(fn, tracker, base, time, &vel, XR_HAND_FOREARM_JOINT_COUNT_ULTRALEAP, r.loc.data(), r.active);
   return r;
 }
 
@@ -617,7 +605,7 @@ MetaJoints locate_meta(PFN_xrLocateHandJointsEXT fn, XrHandTrackerEXT tracker, X
   r.aim.type = XR_TYPE_HAND_TRACKING_AIM_STATE_FB;
   r.capsules.type = XR_TYPE_HAND_TRACKING_CAPSULES_STATE_FB;
   r.capsules.next = &r.aim;
-  r.result = locate_chained(fn, tracker, base, time, &r.capsules, r.loc, r.active);
+  r.result = locate_chained(fn, tracker, base, time, &r.capsules, XR_HAND_JOINT_COUNT_EXT, r.loc.data(), r.active);
   return r;
 }
 
@@ -745,7 +733,7 @@ Joints locate_scaled(PFN_xrLocateHandJointsEXT fn, XrHandTrackerEXT tracker, XrS
   XrHandTrackingScaleFB own{XR_TYPE_HAND_TRACKING_SCALE_FB, nullptr, 0.0f, 0.0f, XR_TRUE, scale};
   XrHandTrackingScaleFB& s = state ? *state : own;
   s = own;
-  r.result = locate_chained(fn, tracker, base, time, &s, r.loc, r.active);
+  r.result = locate_chained(fn, tracker, base, time, &s, XR_HAND_JOINT_COUNT_EXT, r.loc.data(), r.active);
   return r;
 }
 

@@ -223,24 +223,21 @@ Joints App::locate_raw(XrHandEXT hand, XrSpace base, XrTime time) const {
   return locate_with(raw_locate(), hand, base, time, false, XR_HAND_JOINT_COUNT_EXT);
 }
 
+XrResult locate_chained(PFN_xrLocateHandJointsEXT fn, XrHandTrackerEXT tracker, XrSpace base, XrTime time, void* next,
+                        uint32_t count, XrHandJointLocationEXT* loc, XrBool32& active) {
+  XrHandJointLocationsEXT out{XR_TYPE_HAND_JOINT_LOCATIONS_EXT, next, XR_FALSE, count, loc};
+  XrHandJointsLocateInfoEXT info{XR_TYPE_HAND_JOINTS_LOCATE_INFO_EXT, nullptr, base, time};
+  const XrResult res = fn(tracker, &info, &out);
+  active = out.isActive;
+  return res;
+}
+
 Joints App::locate_with(PFN_xrLocateHandJointsEXT fn, XrHandEXT hand, XrSpace base, XrTime time, bool velocities,
                         uint32_t joint_count) const {
   Joints j;
-  XrHandJointVelocitiesEXT vel{};
-  vel.type = XR_TYPE_HAND_JOINT_VELOCITIES_EXT;
-  vel.jointCount = XR_HAND_JOINT_COUNT_EXT;
-  vel.jointVelocities = j.vel.data();
-  XrHandJointLocationsEXT out{};
-  out.type = XR_TYPE_HAND_JOINT_LOCATIONS_EXT;
-  out.next = velocities ? &vel : nullptr;
-  out.jointCount = joint_count;
-  out.jointLocations = j.loc.data();
-  XrHandJointsLocateInfoEXT info{};
-  info.type = XR_TYPE_HAND_JOINTS_LOCATE_INFO_EXT;
-  info.baseSpace = base;
-  info.time = time;
-  j.result = fn(trackers[hand - 1], &info, &out);
-  j.active = out.isActive;
+  XrHandJointVelocitiesEXT vel{XR_TYPE_HAND_JOINT_VELOCITIES_EXT, nullptr, XR_HAND_JOINT_COUNT_EXT, j.vel.data()};
+  j.result = locate_chained(fn, trackers[hand - 1], base, time, velocities ? &vel : nullptr, joint_count, j.loc.data(),
+                            j.active);
   return j;
 }
 

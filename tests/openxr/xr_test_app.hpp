@@ -47,6 +47,11 @@ double track_time(const TrackFiles& f, XrTime t);
 // xrCreateInstance for the tests' app with these extensions; the loader's result.
 XrResult create_instance(const std::vector<const char*>& extensions, XrInstance& instance);
 
+// One xrLocateHandJointsEXT call of `fn` for `count` joints of `tracker` into `loc`, with
+// `next` chained to the answer; the call's result, and whether the hand is active into `active`.
+XrResult locate_chained(PFN_xrLocateHandJointsEXT fn, XrHandTrackerEXT tracker, XrSpace base, XrTime time, void* next,
+                        uint32_t count, XrHandJointLocationEXT* loc, XrBool32& active);
+
 struct Joints {
   XrResult result = XR_ERROR_RUNTIME_FAILURE;
   XrBool32 active = XR_FALSE;
