@@ -40,14 +40,15 @@ if [ "${1:-}" != "--quick" ]; then
     run build/tsan -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG=-g1 -DHS_SANITIZE=thread -DHS_BUILD_TRAINING=OFF -DHS_LAYER_V3=OFF
   # libFuzzer (clang, ASan+UBSan) on every parser of user input: the .hsm model loader,
   # the track CSV reader, the FPHA/MRTK/BVH importers, the layer's JSON configuration and
-  # environment, the replay runtime's environment, the training config (docs/FUZZING.md). Fixed seed; each from a scratch copy of its seed corpus
+  # environment, the replay runtime's environment and paths, the training config
+  # (docs/FUZZING.md). Fixed seed; each from a scratch copy of its seed corpus
   # (tests/fuzz/corpus/<name>), HS_FUZZ_SECONDS each (default 60 s for the model loader,
-  # 30 s for the others), $jobs at a time (a fuzzer is one process on one core): 2.5 min
+  # 30 s for the others), $jobs at a time (a fuzzer is one process on one core): 3 min
   # on 2 cores. Reported in this order whatever order they end in.
   cmake -S . -B build/fuzz -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=RelWithDebInfo -DHS_WERROR=ON \
     "$optimised" \
     -DHS_FUZZ=ON -DHS_SANITIZE=address,undefined -DHS_BUILD_TRAINING=OFF -DHS_BUILD_DEMO=OFF >/dev/null
-  fuzzers=(hsm_loader track_csv fpha mrtk bvh layer_config layer_env replay_env train_config)
+  fuzzers=(hsm_loader track_csv fpha mrtk bvh layer_config layer_env replay_env replay_paths train_config)
   cmake --build build/fuzz -j"$jobs" --target "${fuzzers[@]/#/fuzz_}"
   fuzz() {  # name: runs one fuzzer, its exit status in build/fuzz/fuzz_<name>.rc
     local name=$1 corpus=build/fuzz/corpus/$1 log=build/fuzz/fuzz_$1.log seconds=30 dict=() rc=0

@@ -3,7 +3,7 @@
 // the worker hand-off) and the pure joint rewrite.
 #include "handsteady/filters.hpp"
 #include "handsteady/hsm_format.hpp"
-#include "fb_hand_state.hpp"
+#include "hand_attachments.hpp"
 #include "joint_gate.hpp"
 #include "joint_rewrite.hpp"
 #include "layer_config.hpp"
@@ -631,6 +631,82 @@ TEST_CASE("Meta's capsules and aim: moved with their joint's rigid change, never
     CHECK(aim.pinchStrengthMiddle == 0.0f);
     CHECK(aim.pinchStrengthRing == 1.0f);
   }
+}
+
+TEST_CASE("the hand interaction profile's poses: moved with their joints, never garbage") {
+  JointsBefore before;
+  const auto runtime = tracked_joints(hand_at(0.1));
+  std::copy(runtime.begin(), runtime.end(), before.loc.begin());
+  const int palm = XR_HAND_JOINT_PALM_EXT, tip = XR_HAND_JOINT_INDEX_TIP_EXT, thumb = XR_HAND_JOINT_THUMB_TIP_EXT;
+  constexpr XrSpaceLocationFlags kAll = XR_SPACE_LOCATION_POSITION_VALID_BIT | XR_SPACE_LOCATION_POSITION_TRACKED_BIT |
+                                        XR_SPACE_LOCATION_ORIENTATION_VALID_BIT |
+                                        XR_SPACE_LOCATION_ORIENTATION_TRACKED_BIT;
+  const XrPosef none{{0, 0, 0, 1}, {0, 0, 0}};
+  const auto located = [&](const XrPosef& pose) { return XrSpaceLocation{XR_TYPE_SPACE_LOCATION, nullptr, kAll, pose}; };
+  // The layer turned the palm and the index tip by 10 degrees about themselves and moved
+  // them (3 mm, and 2 mm the other way); the thumb's tip by 4 mm.
+  auto answered = runtime;
+  const Eigen::Quaterniond turn(Eigen::AngleAxisd(0.17, Eigen::Vector3d::UnitX()));
+  const auto change_at = [&](int j, const Eigen::Vector3d& by) {
+    const Eigen::Vector3d at = xr::to_eigen(runtime[j].pose.position);
+    return xr::Rigid(Eigen::Translation3d(at + by) * turn * Eigen::Translation3d(-at));
+  };
+  const xr::Rigid palm_change = change_at(palm, {0.003, 0, 0}), tip_change = change_at(tip, {-0.002, 0, 0});
+  answered[palm].pose = xr::to_xr(palm_change * xr::to_rigid(runtime[palm].pose));
+  answered[tip].pose = xr::to_xr(tip_change * xr::to_rigid(runtime[tip].pose));
+  answered[thumb].pose.position.z += 0.004f;
+  const auto pos = [](const XrSpaceLocation& l) { return xr::to_eigen(l.pose.position); };
+
+  // Grip and poke: their joint's rigid change, whatever the app's offset in the action.
+  const XrPosef offset{{0.258819f, 0.0f, 0.0f, 0.965926f}, {0.0f, 0.0f, -0.02f}};
+  const xr::Rigid grip_rt = xr::to_rigid(runtime[palm].pose) * xr::to_rigid(offset);
+  auto grip = located(xr::to_xr(grip_rt));
+  CHECK(move_hand_pose(HandPose::Grip, before, answered.data(), offset, grip) == 0);
+  const xr::Rigid grip_want = xr::to_rigid(answered[palm].pose) * xr::to_rigid(offset);
+  CHECK((pos(grip) - grip_want.translation()).norm() < 1e-6);
+  CHECK(xr::to_eigen(grip.pose.orientation).angularDistance(Eigen::Quaterniond(grip_want.rotation())) < 1e-5);
+  auto poke = located(runtime[tip].pose);
+  CHECK(move_hand_pose(HandPose::Poke, before, answered.data(), none, poke) == 0);
+  CHECK((pos(poke) - xr::to_eigen(answered[tip].pose.position)).norm() < 1e-6);
+  CHECK(xr::to_eigen(poke.pose.orientation).angularDistance(xr::to_eigen(answered[tip].pose.orientation)) < 1e-5);
+  // Aim: the palm's position change, the runtime's direction.
+  const XrPosef aim_rt{{0.0f, 0.6f, 0.0f, 0.8f}, runtime[XR_HAND_JOINT_INDEX_PROXIMAL_EXT].pose.position};
+  auto aim = located(aim_rt);
+  CHECK(move_hand_pose(HandPose::Aim, before, answered.data(), none, aim) == 0);
+  CHECK((pos(aim) - (xr::to_eigen(aim_rt.position) + xr::to_eigen(answered[palm].pose.position) -
+                     xr::to_eigen(runtime[palm].pose.position))).norm() < 1e-6);
+  CHECK(aim.pose.orientation.y == 0.6f);
+  // Pinch: the mean change of the two tips; between them before, between them after.
+  const auto mid = [&](const std::array<XrHandJointLocationEXT, kJointCount>& j) {
+    return Eigen::Vector3d(0.5 * (xr::to_eigen(j[thumb].pose.position) + xr::to_eigen(j[tip].pose.position)));
+  };
+  auto pinch = located(XrPosef{aim_rt.orientation, xr::to_xr(mid(runtime))});
+  CHECK(move_hand_pose(HandPose::Pinch, before, answered.data(), none, pinch) == 0);
+  CHECK((pos(pinch) - mid(answered)).norm() < 1e-6);
+  // Not located: left as it is. A runtime's joint that was garbage tells no change.
+  auto unlocated = located(runtime[tip].pose);
+  unlocated.locationFlags = 0;
+  CHECK(move_hand_pose(HandPose::Poke, before, answered.data(), none, unlocated) == 0);
+  CHECK(pos(unlocated) == xr::to_eigen(runtime[tip].pose.position));
+  before.garbage[tip] = true;
+  poke = located(runtime[tip].pose);
+  CHECK(move_hand_pose(HandPose::Poke, before, answered.data(), none, poke) == 0);
+  CHECK(pos(poke) == xr::to_eigen(runtime[tip].pose.position));
+  before.garbage[tip] = false;
+  // Garbage flagged valid loses its valid and tracked bits: NaN, 1e30, an unusable
+  // orientation, 60 cm from the palm; 60 cm of the app's own offset is no garbage.
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  for (const XrPosef bad : {XrPosef{{0, 0, 0, 1}, {nan, 0, 0}}, XrPosef{{0, 0, 0, 1}, {1e30f, 0, 0}},
+                            XrPosef{{0, 0, 0, 0}, runtime[tip].pose.position},
+                            XrPosef{{0, 0, 0, 1}, xr::to_xr(xr::to_eigen(runtime[palm].pose.position) + Eigen::Vector3d(0, 0.6, 0))}}) {
+    auto l = located(bad);
+    CHECK(move_hand_pose(HandPose::Poke, before, answered.data(), none, l) == 1);
+    CHECK((l.locationFlags & kAll) == 0);
+  }
+  const XrPosef far_offset{{0, 0, 0, 1}, {0.0f, 0.6f, 0.0f}};
+  auto far = located(xr::to_xr(xr::to_rigid(runtime[tip].pose) * xr::to_rigid(far_offset)));
+  CHECK(move_hand_pose(HandPose::Poke, before, answered.data(), far_offset, far) == 0);
+  CHECK(far.locationFlags == kAll);
 }
 
 TEST_CASE("repair: a radius no hand has, where the position is valid, becomes a neighbour's, 0 stays") {

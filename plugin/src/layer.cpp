@@ -22,7 +22,7 @@
 #include "handsteady_xr/raw_joints_ext.h"
 #include "handsteady_xr/ultraleap_forearm.hpp"
 #include "handsteady_xr/xr_math.hpp"
-#include "fb_hand_state.hpp"
+#include "hand_attachments.hpp"
 #include "hand_tuning.hpp"
 #include "joint_rewrite.hpp"
 #include "layer_config.hpp"
@@ -40,6 +40,7 @@
 #include <filesystem>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <shared_mutex>
 #include <string>
 #include <string_view>
@@ -53,6 +54,8 @@ namespace hs::layer {
 namespace {
 
 constexpr const char* kLayerName = "XR_APILAYER_NOVENDOR_handsteady";
+// Not in older SDK headers (the extension defines only paths, no structures).
+constexpr const char* kHandInteractionExtension = "XR_EXT_hand_interaction";
 // The most joints a joint set the layer filters has (Ultraleap's forearm set: the hand's 26 and the elbow).
 constexpr uint32_t kMaxJoints = XR_HAND_FOREARM_JOINT_COUNT_ULTRALEAP;
 #ifndef HS_LAYER_ISA
@@ -80,7 +83,8 @@ std::atomic<bool> g_logged_internal{false}, g_logged_world_space{false}, g_logge
     g_logged_latest{false}, g_logged_time{false}, g_logged_repaired{false}, g_logged_garbage{false},
     g_logged_recentre{false}, g_logged_untracked{false}, g_logged_controller{false},
     g_logged_joint_set{false}, g_logged_fb_garbage{false}, g_logged_scale{false},
-    g_logged_fit_base{false};
+    g_logged_fit_base{false}, g_logged_hand_pose{false}, g_logged_hand_pose_garbage{false},
+    g_logged_hand_pose_ambiguous{false};
 
 // ---------------------------------------------------------------- state
 
@@ -97,6 +101,11 @@ struct InstanceData {
   PFN_xrDestroyHandTrackerEXT DestroyHandTrackerEXT = nullptr;
   PFN_xrLocateHandJointsEXT LocateHandJointsEXT = nullptr;
   PFN_xrPollEvent PollEvent = nullptr;
+  // XR_EXT_hand_interaction: the action functions the layer hooks or calls.
+  PFN_xrSuggestInteractionProfileBindings SuggestInteractionProfileBindings = nullptr;
+  PFN_xrCreateActionSpace CreateActionSpace = nullptr;
+  PFN_xrDestroyAction DestroyAction = nullptr;
+  PFN_xrGetCurrentInteractionProfile GetCurrentInteractionProfile = nullptr;
   // The runtime's clock (XR_KHR_convert_timespec_time, enabled by the layer when the
   // runtime has it): dates samples of runtimes that answer their latest pose.
   PFN_xrConvertTimespecTimeToTimeKHR ConvertTimespecTimeToTimeKHR = nullptr;
@@ -107,6 +116,13 @@ struct InstanceData {
   bool fb_capsules = false;    // the app enabled XR_FB_hand_tracking_capsules
   bool fb_aim = false;         // the app enabled XR_FB_hand_tracking_aim
   bool fb_mesh = false;        // the app enabled XR_FB_hand_tracking_mesh (its hand scale override)
+  // The app enabled XR_EXT_hand_interaction (and the paths below could be made): its
+  // profile's poses, located as action spaces, move with the joints.
+  bool hand_interaction = false;
+  XrPath hand_profile = XR_NULL_PATH;          // /interaction_profiles/ext/hand_interaction_ext
+  std::array<XrPath, 2> user_hand{};           // /user/hand/left, /user/hand/right
+  // The profile's pose inputs per hand: [hand][HandPose - 1] (grip, aim, pinch_ext, poke_ext).
+  std::array<std::array<XrPath, 4>, 2> pose_input{};
   LayerConfig config;
   std::unique_ptr<HandTuning> tuning;  // per-hand smoothing and horizon, live
 
@@ -151,6 +167,26 @@ struct TrackerData {
   std::atomic<float> scale_asked{0.0f};
   std::unique_ptr<Recording> recording;
   int serial = 0;
+  // The last answer handed to the app, where it enabled XR_EXT_hand_interaction: the
+  // runtime's joints and the layer's, for the poses derived from the hand at that time and
+  // base space. Guarded by answer_mu (copies only, never held across the engine).
+  std::mutex answer_mu;
+  XrTime answer_time = 0;
+  XrSpace answer_base = XR_NULL_HANDLE;
+  bool answer_plain = false;  // asked with no next chain in the info and none in the answer but what the layer moves
+  JointsBefore answer_before;
+  std::array<XrHandJointLocationEXT, kJointCount> answer_after{};
+};
+
+// An action space the app created for an action bound to a pose of the hand interaction
+// profile, or one it may be bound to later (bindings are suggested per profile, any time
+// before the session attaches its action sets).
+struct ActionSpaceData {
+  std::shared_ptr<const InstanceData> inst;
+  XrSession session = XR_NULL_HANDLE;
+  XrAction action = XR_NULL_HANDLE;
+  int hand = -1;  // its subaction path's hand (0 left, 1 right), -1: none given
+  XrPosef pose_in_action{};
 };
 
 struct Registry {
@@ -158,6 +194,10 @@ struct Registry {
   std::unordered_map<XrInstance, std::shared_ptr<InstanceData>> instances;
   std::unordered_map<XrSession, std::shared_ptr<InstanceData>> sessions;
   std::unordered_map<XrHandTrackerEXT, std::shared_ptr<TrackerData>> trackers;
+  // XR_EXT_hand_interaction: the pose each action is bound to per hand in its profile, and
+  // the action spaces of actions that may be.
+  std::unordered_map<XrAction, std::array<HandPose, 2>> hand_actions;
+  std::unordered_map<XrSpace, ActionSpaceData> action_spaces;
   int tracker_serial = 0;
 };
 // Never destroyed: the loader never unloads layers, and app threads may still call in at exit.
@@ -581,6 +621,30 @@ void restart_as_new_hand(TrackerData& t) noexcept {
     if (f) f->source_changed(last);
 }
 
+// A query whose answer is the joints alone: no motion range or other structure asked for,
+// no joint velocities (their own estimate) wanted.
+bool plain_query(const XrHandJointsLocateInfoEXT& info, const XrHandJointLocationsEXT& out) noexcept {
+  return !info.next &&
+         !find_in_chain<XrHandJointVelocitiesEXT, XR_TYPE_HAND_JOINT_VELOCITIES_EXT>(static_cast<void*>(out.next));
+}
+
+// An app that enabled XR_EXT_hand_interaction asks again at the time and in the base space
+// of the last answer, and the runtime answers as then: that answer again. The hand's poses
+// may have been located first (the layer answers for the hand then, hand_answer), and on
+// the network's worker a second answer at the same time would differ (the first is the
+// engine's estimate corrected by the new sample, the next its output for it): the joints
+// the app draws must be those its poke and pinch sit on.
+bool repeat_answer(TrackerData& t, const XrHandJointsLocateInfoEXT& info, const JointsBefore& before,
+                   XrHandJointLocationsEXT& out) noexcept {
+  if (!t.inst->hand_interaction || !plain_query(info, out)) return false;
+  std::lock_guard lock(t.answer_mu);
+  if (!t.answer_plain || t.answer_time != info.time || t.answer_base != info.baseSpace ||
+      std::memcmp(before.loc.data(), t.answer_before.loc.data(), sizeof(before.loc)) != 0)
+    return false;
+  std::copy_n(t.answer_after.begin(), kJointCount, out.jointLocations);
+  return true;
+}
+
 XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, const XrHandJointsLocateInfoEXT* info,
                                                    XrHandJointLocationsEXT* out) noexcept {
   const auto t = find_shared(reg().trackers, tracker);
@@ -620,7 +684,7 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
     auto* aim = t->inst->fb_aim ? find_in_chain<XrHandTrackingAimStateFB, XR_TYPE_HAND_TRACKING_AIM_STATE_FB>(out->next)
                                 : nullptr;
     JointsBefore before;
-    if (capsules || aim) {
+    if (capsules || aim || t->inst->hand_interaction) {
       std::copy_n(out->jointLocations, kJointCount, before.loc.begin());
       before.garbage = garbage;
     }
@@ -652,7 +716,7 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
                  "the runtime reported an active hand with valid joints but none tracked (no "
                  "XR_SPACE_LOCATION_POSITION_TRACKED_BIT): the layer filters tracked joints only, such answers pass "
                  "through unfiltered");
-      filter_answer(*t, *info, *out, scale, garbage);
+      if (!repeat_answer(*t, *info, before, *out)) filter_answer(*t, *info, *out, scale, garbage);
     }
     // Whatever the layer could not replace is never handed over as garbage.
     auto* vel = find_in_chain<XrHandJointVelocitiesEXT, XR_TYPE_HAND_JOINT_VELOCITIES_EXT>(out->next);
@@ -672,9 +736,204 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
       log_once(g_logged_fb_garbage, LogLevel::Warn,
                "the runtime's hand capsules or aim (XR_FB_hand_tracking_capsules, XR_FB_hand_tracking_aim) were "
                "impossible: capsules collapsed onto their joint, the aim marked invalid, pinch strengths clamped");
+    if (t->inst->hand_interaction) {
+      std::lock_guard lock(t->answer_mu);
+      t->answer_time = info->time;
+      t->answer_base = info->baseSpace;
+      t->answer_plain = plain_query(*info, *out);
+      t->answer_before = before;
+      std::copy_n(out->jointLocations, kJointCount, t->answer_after.begin());
+    }
   } catch (...) {
     t->passthrough = true;
     log_once(g_logged_internal, LogLevel::Error, "internal failure while filtering: this tracker passes through");
+  }
+  return res;
+}
+
+// ---------------------------------------------------------------- XR_EXT_hand_interaction
+
+// The runtime derives the hand interaction profile's poses (grip, aim, pinch, poke) from
+// its own joints; the app gets them by locating action spaces. Where the layer moves the
+// joints, those poses move with them (hand_attachments.hpp move_hand_pose), so that a
+// poke or a pinch ray meets what the app draws, predicted or not.
+
+// The pose input of the hand interaction profile a binding path is: its hand and pose.
+std::optional<std::pair<int, HandPose>> hand_pose_input(const InstanceData& d, XrPath path) noexcept {
+  for (int h = 0; h < 2; ++h)
+    for (int k = 0; k < 4; ++k)
+      if (d.pose_input[static_cast<size_t>(h)][static_cast<size_t>(k)] == path)
+        return std::pair{h, static_cast<HandPose>(k + 1)};
+  return std::nullopt;
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL SuggestInteractionProfileBindings(
+    XrInstance instance, const XrInteractionProfileSuggestedBinding* suggested) noexcept {
+  const auto inst = find_shared(reg().instances, instance);
+  if (!inst || !inst->SuggestInteractionProfileBindings) return XR_ERROR_HANDLE_INVALID;
+  const XrResult res = inst->SuggestInteractionProfileBindings(instance, suggested);
+  if (XR_FAILED(res) || suggested->interactionProfile != inst->hand_profile) return res;
+  try {
+    // A suggestion replaces the profile's earlier one (the loader allows one instance).
+    std::unique_lock lock(reg().mu);
+    reg().hand_actions.clear();
+    for (uint32_t i = 0; i < suggested->countSuggestedBindings; ++i) {
+      const XrActionSuggestedBinding& b = suggested->suggestedBindings[i];
+      if (const auto input = hand_pose_input(*inst, b.binding))
+        reg().hand_actions[b.action][static_cast<size_t>(input->first)] = input->second;
+    }
+  } catch (...) {
+    log_once(g_logged_internal, LogLevel::Error, "internal failure recording hand interaction bindings");
+  }
+  return res;
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL CreateActionSpace(XrSession session, const XrActionSpaceCreateInfo* info,
+                                                 XrSpace* space) noexcept {
+  const auto inst = find_shared(reg().sessions, session);
+  if (!inst) {
+    const auto any = hand_instance();  // a session unknown here: the runtime judges the handle
+    return any && any->CreateActionSpace ? any->CreateActionSpace(session, info, space) : XR_ERROR_HANDLE_INVALID;
+  }
+  const XrResult res = inst->CreateActionSpace(session, info, space);
+  if (XR_FAILED(res)) return res;
+  int hand = -1;
+  if (info->subactionPath != XR_NULL_PATH) {
+    if (info->subactionPath == inst->user_hand[0]) hand = 0;
+    else if (info->subactionPath == inst->user_hand[1]) hand = 1;
+    else return res;  // not a hand's
+  }
+  try {
+    std::unique_lock lock(reg().mu);
+    reg().action_spaces[*space] = ActionSpaceData{inst, session, info->action, hand, info->poseInActionSpace};
+  } catch (...) {
+    log_once(g_logged_internal, LogLevel::Error, "internal failure recording an action space: it passes through");
+  }
+  return res;
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL DestroySpace(XrSpace space) noexcept {
+  std::shared_ptr<const InstanceData> inst;
+  {
+    std::unique_lock lock(reg().mu);
+    const auto it = reg().action_spaces.find(space);
+    if (it != reg().action_spaces.end()) {
+      inst = it->second.inst;
+      reg().action_spaces.erase(it);
+    }
+  }
+  if (!inst) inst = hand_instance();
+  return inst && inst->DestroySpace ? inst->DestroySpace(space) : XR_ERROR_HANDLE_INVALID;
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL DestroyAction(XrAction action) noexcept {
+  {
+    std::unique_lock lock(reg().mu);
+    reg().hand_actions.erase(action);
+  }
+  const auto inst = hand_instance();
+  return inst && inst->DestroyAction ? inst->DestroyAction(action) : XR_ERROR_HANDLE_INVALID;
+}
+
+// Whether hand h's current interaction profile is the hand interaction profile: its poses
+// then come from the tracked hand (other profiles' come from controllers).
+bool hand_profile_current(const InstanceData& d, XrSession session, int h) noexcept {
+  XrInteractionProfileState state{XR_TYPE_INTERACTION_PROFILE_STATE, nullptr, XR_NULL_PATH};
+  return d.GetCurrentInteractionProfile(session, d.user_hand[static_cast<size_t>(h)], &state) == XR_SUCCESS &&
+         state.interactionProfile == d.hand_profile;
+}
+
+// The runtime's joints and the layer's answered at `time` in `base`, where the app was
+// answered there last.
+bool cached_answer(TrackerData& t, XrSpace base, XrTime time, JointsBefore& before,
+                   std::array<XrHandJointLocationEXT, kJointCount>& after) noexcept {
+  std::lock_guard lock(t.answer_mu);
+  if (t.answer_time != time || t.answer_base != base) return false;
+  before = t.answer_before;
+  after = t.answer_after;
+  return true;
+}
+
+// The layer's answer for the app's tracker of `hand` in `session` at `time` in `base`: the
+// last one handed over there, else the one the app would get now (asked through the
+// layer's own hook, which keeps it). False when the layer has none (no such tracker, an
+// inactive hand, a tracker passing through).
+bool hand_answer(XrSession session, int hand, XrSpace base, XrTime time, JointsBefore& before,
+                 std::array<XrHandJointLocationEXT, kJointCount>& after) noexcept {
+  std::shared_ptr<TrackerData> t;
+  {
+    std::shared_lock lock(reg().mu);
+    const XrHandEXT which = hand == 0 ? XR_HAND_LEFT_EXT : XR_HAND_RIGHT_EXT;
+    for (const auto& [handle, d] : reg().trackers)
+      if (d->session == session && d->hand == which && !d->passthrough.load(std::memory_order_relaxed)) {
+        t = d;
+        break;
+      }
+  }
+  if (!t) return false;
+  if (cached_answer(*t, base, time, before, after)) return true;
+  std::array<XrHandJointLocationEXT, kMaxJoints> joints{};
+  XrHandJointLocationsEXT out{XR_TYPE_HAND_JOINT_LOCATIONS_EXT, nullptr, XR_FALSE, t->joint_count, joints.data()};
+  const XrHandJointsLocateInfoEXT info{XR_TYPE_HAND_JOINTS_LOCATE_INFO_EXT, nullptr, base, time};
+  return XR_SUCCEEDED(LocateHandJointsEXT(t->handle, &info, &out)) && cached_answer(*t, base, time, before, after);
+}
+
+// An action space of a hand interaction pose, located by the runtime: moved with the
+// layer's answer for its hand at that time, never garbage.
+void move_action_space(const ActionSpaceData& as, const std::array<HandPose, 2>& poses, XrSpace base, XrTime time,
+                       XrSpaceLocation& loc) noexcept {
+  const InstanceData& d = *as.inst;
+  int hand = as.hand;
+  if (hand < 0) {
+    // No subaction path: the runtime picks among the hands the action is bound to.
+    const bool left = poses[0] != HandPose::None && hand_profile_current(d, as.session, 0);
+    const bool right = poses[1] != HandPose::None && hand_profile_current(d, as.session, 1);
+    if (left && right)
+      log_once(g_logged_hand_pose_ambiguous, LogLevel::Info,
+               "an action space of a hand interaction pose bound to both hands, created without a subaction path: "
+               "the layer cannot tell which hand the runtime locates, its pose is the runtime's");
+    hand = left && !right ? 0 : right && !left ? 1 : -1;
+  } else if (poses[static_cast<size_t>(hand)] == HandPose::None || !hand_profile_current(d, as.session, hand)) {
+    hand = -1;
+  }
+  if (hand < 0) return;
+  JointsBefore before;
+  std::array<XrHandJointLocationEXT, kJointCount> after{};
+  if (!hand_answer(as.session, hand, base, time, before, after)) {
+    // No answer of the layer's: the runtime's joints stand, the pose is only judged.
+    for (auto& j : after) j.pose.position = {std::numeric_limits<float>::quiet_NaN(), 0.0f, 0.0f};
+    before.loc = after;
+  } else {
+    log_once(g_logged_hand_pose, LogLevel::Info,
+             "hand interaction poses (XR_EXT_hand_interaction) move with the joints the layer answers");
+  }
+  if (move_hand_pose(poses[static_cast<size_t>(hand)], before, after.data(), as.pose_in_action, loc) > 0)
+    log_once(g_logged_hand_pose_garbage, LogLevel::Warn,
+             "the runtime located a hand interaction pose no hand has (XR_EXT_hand_interaction): marked not valid");
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL LocateSpace(XrSpace space, XrSpace baseSpace, XrTime time,
+                                           XrSpaceLocation* location) noexcept {
+  ActionSpaceData as;
+  std::array<HandPose, 2> poses{};
+  {
+    std::shared_lock lock(reg().mu);
+    const auto it = reg().action_spaces.find(space);
+    if (it != reg().action_spaces.end()) {
+      as = it->second;
+      const auto a = reg().hand_actions.find(as.action);
+      if (a != reg().hand_actions.end()) poses = a->second;
+    }
+  }
+  const auto inst = as.inst ? as.inst : hand_instance();
+  if (!inst) return XR_ERROR_HANDLE_INVALID;
+  const XrResult res = inst->LocateSpace(space, baseSpace, time, location);
+  if (!as.inst || XR_FAILED(res) || !location || (poses[0] == HandPose::None && poses[1] == HandPose::None))
+    return res;
+  try {
+    move_action_space(as, poses, baseSpace, time, *location);
+  } catch (...) {
+    log_once(g_logged_internal, LogLevel::Error, "internal failure moving a hand interaction pose: passed through");
   }
   return res;
 }
@@ -768,6 +1027,7 @@ XRAPI_ATTR XrResult XRAPI_CALL DestroySession(XrSession session) noexcept {
   {
     std::unique_lock lock(reg().mu);
     reg().sessions.erase(session);
+    std::erase_if(reg().action_spaces, [&](const auto& kv) { return kv.second.session == session; });
   }
   return inst->DestroySession(session);
 }
@@ -779,6 +1039,8 @@ XRAPI_ATTR XrResult XRAPI_CALL DestroyInstance(XrInstance instance) noexcept {
   {
     std::unique_lock lock(reg().mu);
     std::erase_if(reg().sessions, [&](const auto& kv) { return kv.second == inst; });
+    std::erase_if(reg().action_spaces, [&](const auto& kv) { return kv.second.inst == inst; });
+    if (inst->hand_interaction) reg().hand_actions.clear();
     reg().instances.erase(instance);
   }
   return inst->DestroyInstance(instance);
@@ -821,6 +1083,13 @@ XRAPI_ATTR XrResult XRAPI_CALL GetInstanceProcAddr(XrInstance instance, const ch
       if (n == "xrDestroyHandTrackerEXT") return ours(&DestroyHandTrackerEXT);
       if (n == "xrLocateHandJointsEXT") return ours(&LocateHandJointsEXT);
       if (n == "xrPollEvent" && inst->PollEvent) return ours(&PollEvent);
+      if (inst->hand_interaction) {
+        if (n == "xrSuggestInteractionProfileBindings") return ours(&SuggestInteractionProfileBindings);
+        if (n == "xrCreateActionSpace") return ours(&CreateActionSpace);
+        if (n == "xrDestroySpace") return ours(&DestroySpace);
+        if (n == "xrDestroyAction") return ours(&DestroyAction);
+        if (n == "xrLocateSpace") return ours(&LocateSpace);
+      }
     }
   }
   return inst->GetInstanceProcAddr(instance, name, fn);
@@ -831,6 +1100,36 @@ void load(const InstanceData& d, const char* name, PFN& dst) {
   PFN_xrVoidFunction f = nullptr;
   if (XR_SUCCEEDED(d.GetInstanceProcAddr(d.instance, name, &f))) dst = reinterpret_cast<PFN>(f);
   else dst = nullptr;
+}
+
+// XR_EXT_hand_interaction's functions and paths for the layer; false (its poses pass
+// through) where the runtime lacks one.
+bool load_hand_interaction(InstanceData& d) noexcept {
+  PFN_xrStringToPath to_path = nullptr;
+  load(d, "xrStringToPath", to_path);
+  load(d, "xrSuggestInteractionProfileBindings", d.SuggestInteractionProfileBindings);
+  load(d, "xrCreateActionSpace", d.CreateActionSpace);
+  load(d, "xrDestroyAction", d.DestroyAction);
+  load(d, "xrGetCurrentInteractionProfile", d.GetCurrentInteractionProfile);
+  bool ok = to_path && d.SuggestInteractionProfileBindings && d.CreateActionSpace && d.DestroyAction &&
+            d.GetCurrentInteractionProfile;
+  const auto path = [&](const char* str, XrPath& out) { ok = ok && to_path(d.instance, str, &out) == XR_SUCCESS; };
+  path("/interaction_profiles/ext/hand_interaction_ext", d.hand_profile);
+  constexpr std::array<const char*, 2> kHands = {"/user/hand/left", "/user/hand/right"};
+  constexpr std::array<std::array<const char*, 4>, 2> kInputs = {{
+      {"/user/hand/left/input/grip/pose", "/user/hand/left/input/aim/pose", "/user/hand/left/input/pinch_ext/pose",
+       "/user/hand/left/input/poke_ext/pose"},
+      {"/user/hand/right/input/grip/pose", "/user/hand/right/input/aim/pose", "/user/hand/right/input/pinch_ext/pose",
+       "/user/hand/right/input/poke_ext/pose"},
+  }};
+  for (size_t h = 0; h < 2; ++h) {
+    path(kHands[h], d.user_hand[h]);
+    for (size_t k = 0; k < 4; ++k) path(kInputs[h][k], d.pose_input[h][k]);
+  }
+  if (!ok)
+    log(LogLevel::Warn, "the runtime lacks the action functions or paths of XR_EXT_hand_interaction: its poses pass "
+                        "through as the runtime locates them");
+  return ok;
 }
 
 XRAPI_ATTR XrResult XRAPI_CALL CreateApiLayerInstance(const XrInstanceCreateInfo* info,
@@ -847,7 +1146,7 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateApiLayerInstance(const XrInstanceCreateInfo
   // Our own extension is ours to answer: the layers and runtime below never see it.
   std::vector<const char*> down_extensions;
   bool raw_joints = false, app_timespec = false, hand_tracking = false, data_source = false, fb_capsules = false,
-       fb_aim = false, fb_mesh = false;
+       fb_aim = false, fb_mesh = false, hand_interaction = false;
   try {
     for (uint32_t i = 0; i < info->enabledExtensionCount; ++i) {
       const std::string_view name(info->enabledExtensionNames[i]);
@@ -861,6 +1160,7 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateApiLayerInstance(const XrInstanceCreateInfo
       if (name == XR_FB_HAND_TRACKING_CAPSULES_EXTENSION_NAME) fb_capsules = true;
       if (name == XR_FB_HAND_TRACKING_AIM_EXTENSION_NAME) fb_aim = true;
       if (name == XR_FB_HAND_TRACKING_MESH_EXTENSION_NAME) fb_mesh = true;
+      if (name == kHandInteractionExtension) hand_interaction = true;
       down_extensions.push_back(info->enabledExtensionNames[i]);
     }
     // The runtime's clock for the layer, when the runtime has it (else created without).
@@ -903,6 +1203,7 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateApiLayerInstance(const XrInstanceCreateInfo
       load(*d, "xrDestroyHandTrackerEXT", d->DestroyHandTrackerEXT);
       load(*d, "xrLocateHandJointsEXT", d->LocateHandJointsEXT);
     }
+    if (d->hand_tracking && hand_interaction) d->hand_interaction = load_hand_interaction(*d);
     LoadedConfig loaded = load_layer_config();
     d->config = std::move(loaded.config);
     g_log_level = static_cast<int>(d->config.log_level);

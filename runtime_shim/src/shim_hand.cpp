@@ -167,4 +167,18 @@ void fill_aim(const XrHandJointLocationEXT* joints, XrHandTrackingAimStateFB& ai
   }
 }
 
+XrPosef hand_input_pose(const XrHandJointLocationEXT* joints, HandInput input) {
+  const XrPosef& palm = joints[XR_HAND_JOINT_PALM_EXT].pose;
+  switch (input) {
+    case HandInput::GripPose: return palm;
+    case HandInput::PokePose: return joints[XR_HAND_JOINT_INDEX_TIP_EXT].pose;
+    case HandInput::PinchPose: {
+      const Eigen::Vector3d mid = 0.5 * (xr::to_eigen(joints[XR_HAND_JOINT_THUMB_TIP_EXT].pose.position) +
+                                         xr::to_eigen(joints[XR_HAND_JOINT_INDEX_TIP_EXT].pose.position));
+      return XrPosef{palm.orientation, xr::to_xr(mid)};
+    }
+    default: return XrPosef{palm.orientation, joints[XR_HAND_JOINT_INDEX_PROXIMAL_EXT].pose.position};
+  }
+}
+
 }  // namespace hs::shim

@@ -7,6 +7,7 @@
 
 #include "handsteady/skeleton.hpp"
 #include "handsteady/track.hpp"
+#include "shim_actions.hpp"
 #include "shim_config.hpp"
 
 #include <Eigen/Core>
@@ -62,5 +63,12 @@ void fill_aim(const XrHandJointLocationEXT* joints, XrHandTrackingAimStateFB& ai
 // XR_FB_hand_tracking_mesh's scale: the hand scaled about its wrist (rows without a wrist:
 // about the palm; untracked joints stay NaN).
 Pose scaled_about_wrist(const Pose& p, double scale);
+
+// The pose input's pose from the hand's answered joints (the 26 of the default set, in the
+// space they are answered in): grip at the palm; aim at the index finger's proximal joint,
+// oriented as the palm (as XR_FB_hand_tracking_aim here); pinch between the thumb's and the
+// index finger's tips, oriented as the aim; poke at the index tip, its frame. Garbage
+// joints give a garbage pose (a runtime computing from its own faulty joints).
+XrPosef hand_input_pose(const XrHandJointLocationEXT* joints, HandInput input);
 
 }  // namespace hs::shim

@@ -17,6 +17,7 @@
 #include "handsteady_xr/loader_negotiation.hpp"
 #include "handsteady_xr/ultraleap_forearm.hpp"
 #include "handsteady_xr/xr_math.hpp"
+#include "shim_actions.hpp"
 #include "shim_config.hpp"
 #include "shim_hand.hpp"
 
@@ -33,8 +34,10 @@
 #include <mutex>
 #include <numbers>
 #include <optional>
+#include <string>
 #include <string_view>
 #include <thread>
+#include <vector>
 
 namespace hs::shim {
 namespace {
@@ -49,11 +52,21 @@ struct SessionData {
   bool running = false;
   bool frame_waited = false;
   bool frame_begun = false;
+  bool attached = false;                   // xrAttachSessionActionSets done
+  std::array<XrPath, 2> profile{};         // current interaction profile per hand (left, right)
 };
 struct SpaceData {
   XrSession session;
   XrReferenceSpaceType type;
-  Rigid pose_in_ref;
+  Rigid pose_in_ref;  // a reference space's pose in it, or an action space's pose in the action's
+  uint64_t action = 0;                     // an action space: its action (else 0)
+  XrPath subaction = XR_NULL_PATH;
+};
+struct ActionData {
+  uint64_t set = 0;
+  XrActionType type = XR_ACTION_TYPE_POSE_INPUT;
+  std::vector<XrPath> subactions;
+  std::vector<HandBinding> hand_bindings;  // suggested for the hand interaction profile
 };
 struct TrackerData {
   XrSession session;
@@ -70,7 +83,7 @@ struct Runtime {
   bool live = false;
   XrInstance instance = XR_NULL_HANDLE;
   bool ext_hand = false, ext_headless = false, ext_timespec = false, ext_data_source = false, ext_forearm = false,
-       ext_capsules = false, ext_aim = false, ext_mesh = false;
+       ext_capsules = false, ext_aim = false, ext_mesh = false, ext_hand_interaction = false;
   ShimConfig cfg;
   std::array<HandSeries, 2> hands;
   std::array<HandSeries, 2> controller_hands;  // the recording uncorrupted, where a controller places it
@@ -82,6 +95,12 @@ struct Runtime {
   std::map<uint64_t, SessionData> sessions;
   std::map<uint64_t, SpaceData> spaces;
   std::map<uint64_t, TrackerData> trackers;
+  // The action system: paths (XrPath = index + 1, per instance), action sets (attached or
+  // not) and actions; whether hand interaction bindings were suggested.
+  std::vector<std::string> paths;
+  std::map<uint64_t, bool> action_sets;
+  std::map<uint64_t, ActionData> actions;
+  bool hand_profile_suggested = false;
   std::deque<XrEventDataBuffer> events;
   bool recenter_announced = false;
 };
@@ -205,7 +224,8 @@ struct ExtensionInfo {
   const char* name;
   uint32_t version;
 };
-constexpr std::array<ExtensionInfo, 8> kExtensions = {{
+constexpr std::array<ExtensionInfo, 9> kExtensions = {{
+    {kHandInteractionExtension, kHandInteractionSpecVersion},
     {XR_EXT_HAND_TRACKING_EXTENSION_NAME, XR_EXT_hand_tracking_SPEC_VERSION},
     {XR_EXT_HAND_TRACKING_DATA_SOURCE_EXTENSION_NAME, XR_EXT_hand_tracking_data_source_SPEC_VERSION},
     {XR_ULTRALEAP_HAND_TRACKING_FOREARM_EXTENSION_NAME, XR_ULTRALEAP_hand_tracking_forearm_SPEC_VERSION},
@@ -244,7 +264,7 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateInstance(const XrInstanceCreateInfo* info, 
   std::lock_guard lock(r.mu);
   if (r.live) return XR_ERROR_LIMIT_REACHED;
   bool hand = false, headless = false, timespec = false, data_source = false, forearm = false, capsules = false,
-       aim = false, mesh = false;
+       aim = false, mesh = false, hand_interaction = false;
   for (uint32_t i = 0; i < info->enabledExtensionCount; ++i) {
     const std::string_view name = info->enabledExtensionNames[i];
     if (name == XR_EXT_HAND_TRACKING_EXTENSION_NAME) hand = true;
@@ -253,6 +273,7 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateInstance(const XrInstanceCreateInfo* info, 
     else if (name == XR_FB_HAND_TRACKING_CAPSULES_EXTENSION_NAME) capsules = true;
     else if (name == XR_FB_HAND_TRACKING_AIM_EXTENSION_NAME) aim = true;
     else if (name == XR_FB_HAND_TRACKING_MESH_EXTENSION_NAME) mesh = true;
+    else if (name == kHandInteractionExtension) hand_interaction = true;
     else if (name == XR_MND_HEADLESS_EXTENSION_NAME) headless = true;
     else if (name == XR_KHR_CONVERT_TIMESPEC_TIME_EXTENSION_NAME) timespec = true;
     else return XR_ERROR_EXTENSION_NOT_PRESENT;
@@ -295,9 +316,14 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateInstance(const XrInstanceCreateInfo* info, 
   r.ext_capsules = capsules;
   r.ext_aim = aim;
   r.ext_mesh = mesh;
+  r.ext_hand_interaction = hand_interaction;
   r.sessions.clear();
   r.spaces.clear();
   r.trackers.clear();
+  r.paths.clear();
+  r.action_sets.clear();
+  r.actions.clear();
+  r.hand_profile_suggested = false;
   r.events.clear();
   r.recenter_announced = false;
   r.instance = handle_of<XrInstance>(r.next_handle++);
@@ -316,6 +342,9 @@ XRAPI_ATTR XrResult XRAPI_CALL DestroyInstance(XrInstance instance) {
   r.sessions.clear();
   r.spaces.clear();
   r.trackers.clear();
+  r.paths.clear();
+  r.action_sets.clear();
+  r.actions.clear();
   r.events.clear();
   r.hands = {};
   r.controller_hands = {};
@@ -590,6 +619,56 @@ XRAPI_ATTR XrResult XRAPI_CALL EndFrame(XrSession session, const XrFrameEndInfo*
   return XR_SUCCESS;
 }
 
+// ---------------------------------------------------------------- the hand's joints
+
+// Joint positions and frames of world hand w (every joint placed: with_valid_positions)
+// in a space whose pose in the world is base_in_world; the elbow (the forearm set's 27th
+// joint) takes the wrist's frame.
+void joints_in(const Rigid& base_in_world, const Pose& filled, bool left, std::array<Eigen::Vector3d, kMaxJoints>& pos,
+               std::array<Eigen::Matrix3d, kMaxJoints>& rot) {
+  const Rigid world_to_base = base_in_world.inverse();
+  const auto frames = joint_frames(filled, left);
+  for (int j = 0; j < kJointCount; ++j) {
+    pos[j] = world_to_base * Eigen::Vector3d(filled.row(j).transpose());
+    rot[j] = world_to_base.linear() * frames[j];
+  }
+  pos[kJointCount] = world_to_base * elbow_position(filled);
+  rot[kJointCount] = rot[idx(Joint::Wrist)];
+}
+
+// A joint of the set is tracked with its recorded joint (the elbow: with the wrist).
+bool set_joint_tracked(const Pose& w, int j) { return joint_tracked(w, j < kJointCount ? j : idx(Joint::Wrist)); }
+
+// The answer's joint locations from joints_in's positions and frames: every joint valid,
+// tracked where recorded, the joints' radii.
+void fill_locations(const std::array<Eigen::Vector3d, kMaxJoints>& pos, const std::array<Eigen::Matrix3d, kMaxJoints>& rot,
+                    const Pose& world, uint32_t count, XrHandJointLocationEXT* out) {
+  for (int j = 0; j < static_cast<int>(count); ++j) {
+    XrHandJointLocationEXT& loc = out[j];
+    loc.pose.position = xr::to_xr(pos[j]);
+    loc.pose.orientation = xr::to_xr(Eigen::Quaterniond(rot[j]).normalized());
+    loc.radius = j < kJointCount ? joint_radius(j) : kElbowRadiusM;
+    loc.locationFlags = XR_SPACE_LOCATION_ORIENTATION_VALID_BIT | XR_SPACE_LOCATION_POSITION_VALID_BIT;
+    if (set_joint_tracked(world, j))
+      loc.locationFlags |= XR_SPACE_LOCATION_ORIENTATION_TRACKED_BIT | XR_SPACE_LOCATION_POSITION_TRACKED_BIT;
+  }
+}
+
+// The tracked hand h (0 left) at `time` in the world, its 26 joints as its tracker answers
+// them (faults included): what the hand interaction profile's poses are derived from.
+// False when no hand is tracked then (or a controller holds it).
+bool world_joints(const Runtime& r, int h, XrTime time, std::array<XrHandJointLocationEXT, kJointCount>& out) {
+  if (r.cfg.controller && r.cfg.controller->contains(track_time(r, time))) return false;
+  const Pose world = replayed_hand(r.hands[static_cast<size_t>(h)], r.cfg, r.clock, time, now_locked(r));
+  if (!any_joint_tracked(world)) return false;
+  std::array<Eigen::Vector3d, kMaxJoints> pos;
+  std::array<Eigen::Matrix3d, kMaxJoints> rot;
+  joints_in(Rigid::Identity(), with_valid_positions(world), h == 0, pos, rot);
+  fill_locations(pos, rot, world, kJointCount, out.data());
+  inject_joint_faults(r.cfg.faults, time, h, out.data(), nullptr);
+  return true;
+}
+
 // ---------------------------------------------------------------- spaces
 
 constexpr std::array<XrReferenceSpaceType, 3> kSpaceTypes = {
@@ -627,6 +706,40 @@ XRAPI_ATTR XrResult XRAPI_CALL DestroySpace(XrSpace space) {
   return r.spaces.erase(id_of(space)) ? XR_SUCCESS : XR_ERROR_HANDLE_INVALID;
 }
 
+std::string_view path_string(const Runtime& r, XrPath path) {
+  return path >= 1 && path <= r.paths.size() ? std::string_view(r.paths[path - 1]) : std::string_view();
+}
+
+// Which hand's pose input an action space stands for now: the first hand (left, then
+// right) its subaction path allows whose current profile is the hand interaction profile
+// and to which its action is bound as a pose. nullopt: not active.
+std::optional<HandBinding> action_space_input(const Runtime& r, const SpaceData& s) {
+  const auto session = r.sessions.find(id_of(s.session));
+  const auto action = r.actions.find(s.action);
+  if (session == r.sessions.end() || action == r.actions.end()) return std::nullopt;
+  for (int h = 0; h < 2; ++h) {
+    if (s.subaction != XR_NULL_PATH && user_hand(path_string(r, s.subaction)) != h) continue;
+    if (path_string(r, session->second.profile[static_cast<size_t>(h)]) != kHandInteractionProfile) continue;
+    for (const HandBinding& b : action->second.hand_bindings)
+      if (b.hand == h && is_pose(b.input)) return b;
+  }
+  return std::nullopt;
+}
+
+// A space's pose in the world at `time`; false where it cannot be located (an action
+// space whose input is not active, or whose hand is not tracked then).
+bool space_world_pose(const Runtime& r, const SpaceData& s, XrTime time, Rigid& out) {
+  if (s.action == 0) {
+    out = space_in_world(r, s, track_time(r, time));
+    return true;
+  }
+  const auto input = action_space_input(r, s);
+  std::array<XrHandJointLocationEXT, kJointCount> joints{};
+  if (!input || !world_joints(r, input->hand, time, joints)) return false;
+  out = xr::to_rigid(hand_input_pose(joints.data(), input->input)) * s.pose_in_ref;
+  return true;
+}
+
 XRAPI_ATTR XrResult XRAPI_CALL LocateSpace(XrSpace space, XrSpace baseSpace, XrTime time, XrSpaceLocation* location) {
   Runtime& r = rt();
   std::lock_guard lock(r.mu);
@@ -641,7 +754,15 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateSpace(XrSpace space, XrSpace baseSpace, XrT
           r.cfg.faults.space_error)
     return XR_ERROR_RUNTIME_FAILURE;
   const double t = track_time(r, time);
-  location->pose = xr::to_xr(space_in_world(r, b->second, t).inverse() * space_in_world(r, a->second, t));
+  Rigid a_world, b_world;
+  if (!space_world_pose(r, a->second, time, a_world) || !space_world_pose(r, b->second, time, b_world)) {
+    location->locationFlags = 0;
+    location->pose = XrPosef{{0.0f, 0.0f, 0.0f, 1.0f}, {0.0f, 0.0f, 0.0f}};
+    for (auto* s = static_cast<XrBaseOutStructure*>(location->next); s; s = s->next)
+      if (s->type == XR_TYPE_SPACE_VELOCITY) reinterpret_cast<XrSpaceVelocity*>(s)->velocityFlags = 0;
+    return XR_SUCCESS;
+  }
+  location->pose = xr::to_xr(b_world.inverse() * a_world);
   location->locationFlags = XR_SPACE_LOCATION_ORIENTATION_VALID_BIT | XR_SPACE_LOCATION_POSITION_VALID_BIT |
                             XR_SPACE_LOCATION_ORIENTATION_TRACKED_BIT | XR_SPACE_LOCATION_POSITION_TRACKED_BIT;
   // Injected fault: an impossible pose flagged valid (alternately NaN and 1e30).
@@ -655,7 +776,8 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateSpace(XrSpace space, XrSpace baseSpace, XrT
     if (s->type != XR_TYPE_SPACE_VELOCITY) continue;
     auto* v = reinterpret_cast<XrSpaceVelocity*>(s);
     v->velocityFlags = 0;
-    if (!r.cfg.space_velocity) continue;
+    // Action spaces: no velocities (the poses derived from the hand are given without).
+    if (!r.cfg.space_velocity || a->second.action != 0 || b->second.action != 0) continue;
     // As real runtimes do: the space's origin and rotation relative to the base, in the
     // base's axes (central difference of the relative pose over +-1 ms).
     constexpr double h = 1e-3;
@@ -727,6 +849,7 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
   const auto base = r.spaces.find(id_of(info->baseSpace));
   if (base == r.spaces.end()) return XR_ERROR_HANDLE_INVALID;
   if (info->time <= 0) return XR_ERROR_TIME_INVALID;
+  const bool action_base = base->second.action != 0;  // joints in an action space: not offered here
   XrHandJointVelocitiesEXT* vel = nullptr;
   XrHandTrackingDataSourceStateEXT* source = nullptr;
   XrHandTrackingCapsulesStateFB* capsules = nullptr;
@@ -765,8 +888,9 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
   const bool from_controller = r.cfg.controller && r.cfg.controller->contains(track_time(r, info->time));
   const bool accepted = from_controller ? tr->second.controller : tr->second.unobstructed;
   const auto& series = (from_controller ? r.controller_hands : r.hands)[hand == XR_HAND_LEFT_EXT ? 0 : 1];
-  const Pose world =
-      accepted ? scaled_about_wrist(replayed_hand(series, r.cfg, r.clock, info->time, now), hand_scale) : untracked_pose();
+  const Pose world = accepted && !action_base
+                         ? scaled_about_wrist(replayed_hand(series, r.cfg, r.clock, info->time, now), hand_scale)
+                         : untracked_pose();
   if (source) {
     source->isActive = accepted ? XR_TRUE : XR_FALSE;
     source->dataSource =
@@ -780,35 +904,17 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
       for (uint32_t j = 0; j < vel->jointCount; ++j) vel->jointVelocities[j].velocityFlags = 0;
     return XR_SUCCESS;
   }
-  // Joint poses in the base space at time t: positions, and frames from the positions
-  // (the elbow: the wrist's frame).
+  // Joint poses in the base space at time t: positions, and frames from the positions.
   auto joints_in_base = [&](XrTime t, const Pose& w, std::array<Eigen::Vector3d, kMaxJoints>& pos,
                             std::array<Eigen::Matrix3d, kMaxJoints>& rot) {
-    const Rigid world_to_base = space_in_world(r, base->second, track_time(r, t)).inverse();
-    const Pose filled = with_valid_positions(w);
-    const auto frames = joint_frames(filled, hand == XR_HAND_LEFT_EXT);
-    for (int j = 0; j < kJointCount; ++j) {
-      pos[j] = world_to_base * Eigen::Vector3d(filled.row(j).transpose());
-      rot[j] = world_to_base.linear() * frames[j];
-    }
-    pos[kJointCount] = world_to_base * elbow_position(filled);
-    rot[kJointCount] = rot[idx(Joint::Wrist)];
+    joints_in(space_in_world(r, base->second, track_time(r, t)), with_valid_positions(w), hand == XR_HAND_LEFT_EXT, pos,
+              rot);
   };
-  // A joint of the set: the elbow is tracked with the wrist.
-  const auto set_joint_tracked = [](const Pose& w, int j) { return joint_tracked(w, j < kJointCount ? j : idx(Joint::Wrist)); };
   std::array<Eigen::Vector3d, kMaxJoints> pos;
   std::array<Eigen::Matrix3d, kMaxJoints> rot;
   joints_in_base(info->time, world, pos, rot);
   out->isActive = XR_TRUE;
-  for (int j = 0; j < static_cast<int>(count); ++j) {
-    XrHandJointLocationEXT& loc = out->jointLocations[j];
-    loc.pose.position = xr::to_xr(pos[j]);
-    loc.pose.orientation = xr::to_xr(Eigen::Quaterniond(rot[j]).normalized());
-    loc.radius = j < kJointCount ? joint_radius(j) : kElbowRadiusM;
-    loc.locationFlags = XR_SPACE_LOCATION_ORIENTATION_VALID_BIT | XR_SPACE_LOCATION_POSITION_VALID_BIT;
-    if (set_joint_tracked(world, j))
-      loc.locationFlags |= XR_SPACE_LOCATION_ORIENTATION_TRACKED_BIT | XR_SPACE_LOCATION_POSITION_TRACKED_BIT;
-  }
+  fill_locations(pos, rot, world, count, out->jointLocations);
   if (vel) {
     // Central differences over +-2 ms of the joints relative to the base space.
     constexpr XrTime h = 2'000'000;
@@ -877,6 +983,316 @@ XRAPI_ATTR XrResult XRAPI_CALL GetHandMeshFB(XrHandTrackerEXT tracker, XrHandTra
   return XR_SUCCESS;
 }
 
+// ---------------------------------------------------------------- actions
+
+// The action system, enough for XR_EXT_hand_interaction's profile: paths, action sets and
+// actions, suggested bindings (that profile's inputs; the simple controller's accepted and
+// never current), attaching, syncing (which makes the hand interaction profile current
+// for both hands once its bindings are attached, announced by an event), and action
+// spaces, located from the tracked hand (space_world_pose). Action states: poses only
+// (active while their space could be located); boolean, float and vector states are
+// inactive, haptics do nothing.
+
+XRAPI_ATTR XrResult XRAPI_CALL StringToPath(XrInstance instance, const char* pathString, XrPath* path) {
+  Runtime& r = rt();
+  std::lock_guard lock(r.mu);
+  if (!instance_ok(r, instance)) return XR_ERROR_HANDLE_INVALID;
+  if (!pathString || !path) return XR_ERROR_VALIDATION_FAILURE;
+  const std::string_view str(pathString);
+  if (!well_formed_path(str)) return XR_ERROR_PATH_FORMAT_INVALID;
+  for (size_t i = 0; i < r.paths.size(); ++i)
+    if (r.paths[i] == str) {
+      *path = i + 1;
+      return XR_SUCCESS;
+    }
+  if (r.paths.size() >= 65536) return XR_ERROR_PATH_COUNT_EXCEEDED;
+  r.paths.emplace_back(str);
+  *path = r.paths.size();
+  return XR_SUCCESS;
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL PathToString(XrInstance instance, XrPath path, uint32_t capacity, uint32_t* count,
+                                            char* buffer) {
+  Runtime& r = rt();
+  std::lock_guard lock(r.mu);
+  if (!instance_ok(r, instance)) return XR_ERROR_HANDLE_INVALID;
+  const std::string_view str = path_string(r, path);
+  if (str.empty()) return XR_ERROR_PATH_INVALID;
+  return two_call(capacity, count, buffer, std::string(str).c_str(), static_cast<uint32_t>(str.size() + 1));
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL CreateActionSet(XrInstance instance, const XrActionSetCreateInfo* info,
+                                               XrActionSet* actionSet) {
+  Runtime& r = rt();
+  std::lock_guard lock(r.mu);
+  if (!instance_ok(r, instance)) return XR_ERROR_HANDLE_INVALID;
+  if (!info || !actionSet || info->type != XR_TYPE_ACTION_SET_CREATE_INFO) return XR_ERROR_VALIDATION_FAILURE;
+  if (!well_formed_path(std::string("/") + info->actionSetName)) return XR_ERROR_PATH_FORMAT_INVALID;
+  if (info->localizedActionSetName[0] == '\0') return XR_ERROR_LOCALIZED_NAME_INVALID;
+  const uint64_t id = r.next_handle++;
+  r.action_sets[id] = false;
+  *actionSet = handle_of<XrActionSet>(id);
+  return XR_SUCCESS;
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL DestroyActionSet(XrActionSet actionSet) {
+  Runtime& r = rt();
+  std::lock_guard lock(r.mu);
+  if (!r.action_sets.erase(id_of(actionSet))) return XR_ERROR_HANDLE_INVALID;
+  std::erase_if(r.actions, [&](const auto& kv) { return kv.second.set == id_of(actionSet); });
+  return XR_SUCCESS;
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL CreateAction(XrActionSet actionSet, const XrActionCreateInfo* info, XrAction* action) {
+  Runtime& r = rt();
+  std::lock_guard lock(r.mu);
+  const auto set = r.action_sets.find(id_of(actionSet));
+  if (set == r.action_sets.end()) return XR_ERROR_HANDLE_INVALID;
+  if (!info || !action || info->type != XR_TYPE_ACTION_CREATE_INFO) return XR_ERROR_VALIDATION_FAILURE;
+  if (set->second) return XR_ERROR_ACTIONSETS_ALREADY_ATTACHED;
+  if (!well_formed_path(std::string("/") + info->actionName)) return XR_ERROR_PATH_FORMAT_INVALID;
+  if (info->localizedActionName[0] == '\0') return XR_ERROR_LOCALIZED_NAME_INVALID;
+  switch (info->actionType) {
+    case XR_ACTION_TYPE_BOOLEAN_INPUT: case XR_ACTION_TYPE_FLOAT_INPUT: case XR_ACTION_TYPE_VECTOR2F_INPUT:
+    case XR_ACTION_TYPE_POSE_INPUT: case XR_ACTION_TYPE_VIBRATION_OUTPUT: break;
+    default: return XR_ERROR_VALIDATION_FAILURE;
+  }
+  if (info->countSubactionPaths > 0 && !info->subactionPaths) return XR_ERROR_VALIDATION_FAILURE;
+  ActionData data;
+  data.set = set->first;
+  data.type = info->actionType;
+  for (uint32_t i = 0; i < info->countSubactionPaths; ++i) {
+    const XrPath p = info->subactionPaths[i];
+    if (path_string(r, p).empty()) return XR_ERROR_PATH_INVALID;
+    if (!user_hand(path_string(r, p))) return XR_ERROR_PATH_UNSUPPORTED;
+    if (std::find(data.subactions.begin(), data.subactions.end(), p) != data.subactions.end())
+      return XR_ERROR_PATH_UNSUPPORTED;  // "duplicate": the spec's valid usage
+    data.subactions.push_back(p);
+  }
+  const uint64_t id = r.next_handle++;
+  r.actions[id] = std::move(data);
+  *action = handle_of<XrAction>(id);
+  return XR_SUCCESS;
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL DestroyAction(XrAction action) {
+  Runtime& r = rt();
+  std::lock_guard lock(r.mu);
+  return r.actions.erase(id_of(action)) ? XR_SUCCESS : XR_ERROR_HANDLE_INVALID;
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL SuggestInteractionProfileBindings(
+    XrInstance instance, const XrInteractionProfileSuggestedBinding* suggested) {
+  Runtime& r = rt();
+  std::lock_guard lock(r.mu);
+  if (!instance_ok(r, instance)) return XR_ERROR_HANDLE_INVALID;
+  if (!suggested || suggested->type != XR_TYPE_INTERACTION_PROFILE_SUGGESTED_BINDING ||
+      suggested->countSuggestedBindings == 0 || !suggested->suggestedBindings)
+    return XR_ERROR_VALIDATION_FAILURE;
+  const std::string_view profile = path_string(r, suggested->interactionProfile);
+  if (profile.empty()) return XR_ERROR_PATH_INVALID;
+  const bool hand_profile = r.ext_hand_interaction && profile == kHandInteractionProfile;
+  if (!hand_profile && profile != kSimpleControllerProfile) return XR_ERROR_PATH_UNSUPPORTED;
+  std::map<uint64_t, std::vector<HandBinding>> bound;
+  for (uint32_t i = 0; i < suggested->countSuggestedBindings; ++i) {
+    const XrActionSuggestedBinding& b = suggested->suggestedBindings[i];
+    const auto action = r.actions.find(id_of(b.action));
+    if (action == r.actions.end()) return XR_ERROR_HANDLE_INVALID;
+    if (r.action_sets[action->second.set]) return XR_ERROR_ACTIONSETS_ALREADY_ATTACHED;
+    const std::string_view path = path_string(r, b.binding);
+    if (path.empty()) return XR_ERROR_PATH_INVALID;
+    if (!hand_profile) continue;  // the simple controller's: accepted, never current
+    const auto hb = hand_binding(path);
+    if (!hb) return XR_ERROR_PATH_UNSUPPORTED;
+    if (is_pose(hb->input) != (action->second.type == XR_ACTION_TYPE_POSE_INPUT)) return XR_ERROR_PATH_UNSUPPORTED;
+    bound[action->first].push_back(*hb);
+  }
+  if (!hand_profile) return XR_SUCCESS;
+  // Each suggestion replaces the profile's earlier one.
+  for (auto& [id, a] : r.actions) {
+    const auto it = bound.find(id);
+    a.hand_bindings = it == bound.end() ? std::vector<HandBinding>{} : it->second;
+  }
+  r.hand_profile_suggested = true;
+  return XR_SUCCESS;
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL AttachSessionActionSets(XrSession session, const XrSessionActionSetsAttachInfo* info) {
+  Runtime& r = rt();
+  std::lock_guard lock(r.mu);
+  SessionData* s = find_session(r, session);
+  if (!s) return XR_ERROR_HANDLE_INVALID;
+  if (!info || info->type != XR_TYPE_SESSION_ACTION_SETS_ATTACH_INFO || info->countActionSets == 0 || !info->actionSets)
+    return XR_ERROR_VALIDATION_FAILURE;
+  if (s->attached) return XR_ERROR_ACTIONSETS_ALREADY_ATTACHED;
+  for (uint32_t i = 0; i < info->countActionSets; ++i)
+    if (!r.action_sets.count(id_of(info->actionSets[i]))) return XR_ERROR_HANDLE_INVALID;
+  for (uint32_t i = 0; i < info->countActionSets; ++i) r.action_sets[id_of(info->actionSets[i])] = true;
+  s->attached = true;
+  return XR_SUCCESS;
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL GetCurrentInteractionProfile(XrSession session, XrPath topLevelUserPath,
+                                                            XrInteractionProfileState* state) {
+  Runtime& r = rt();
+  std::lock_guard lock(r.mu);
+  SessionData* s = find_session(r, session);
+  if (!s) return XR_ERROR_HANDLE_INVALID;
+  if (!state || state->type != XR_TYPE_INTERACTION_PROFILE_STATE) return XR_ERROR_VALIDATION_FAILURE;
+  if (!s->attached) return XR_ERROR_ACTIONSET_NOT_ATTACHED;
+  const std::string_view user = path_string(r, topLevelUserPath);
+  if (user.empty()) return XR_ERROR_PATH_INVALID;
+  const auto hand = user_hand(user);
+  if (!hand) return XR_ERROR_PATH_UNSUPPORTED;
+  state->interactionProfile = s->profile[static_cast<size_t>(*hand)];
+  return XR_SUCCESS;
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL SyncActions(XrSession session, const XrActionsSyncInfo* info) {
+  Runtime& r = rt();
+  std::lock_guard lock(r.mu);
+  SessionData* s = find_session(r, session);
+  if (!s) return XR_ERROR_HANDLE_INVALID;
+  if (!info || info->type != XR_TYPE_ACTIONS_SYNC_INFO || (info->countActiveActionSets > 0 && !info->activeActionSets))
+    return XR_ERROR_VALIDATION_FAILURE;
+  if (!s->attached) return XR_ERROR_ACTIONSET_NOT_ATTACHED;
+  for (uint32_t i = 0; i < info->countActiveActionSets; ++i) {
+    const auto set = r.action_sets.find(id_of(info->activeActionSets[i].actionSet));
+    if (set == r.action_sets.end()) return XR_ERROR_HANDLE_INVALID;
+    if (!set->second) return XR_ERROR_ACTIONSET_NOT_ATTACHED;
+  }
+  if (s->state != XR_SESSION_STATE_FOCUSED) return XR_SESSION_NOT_FOCUSED;
+  if (!r.hand_profile_suggested || s->profile[0] != XR_NULL_PATH) return XR_SUCCESS;
+  for (size_t i = 0; i < r.paths.size(); ++i)
+    if (r.paths[i] == kHandInteractionProfile) s->profile = {i + 1, i + 1};
+  XrEventDataBuffer buf{};
+  auto* ev = reinterpret_cast<XrEventDataInteractionProfileChanged*>(&buf);
+  ev->type = XR_TYPE_EVENT_DATA_INTERACTION_PROFILE_CHANGED;
+  ev->next = nullptr;
+  ev->session = session;
+  r.events.push_back(buf);
+  return XR_SUCCESS;
+}
+
+// The action of an action-state query, checked against its subaction path.
+XrResult checked_action(Runtime& r, XrSession session, const XrActionStateGetInfo* info, XrActionType type,
+                        const ActionData*& action) {
+  SessionData* s = find_session(r, session);
+  if (!s) return XR_ERROR_HANDLE_INVALID;
+  if (!info || info->type != XR_TYPE_ACTION_STATE_GET_INFO) return XR_ERROR_VALIDATION_FAILURE;
+  const auto it = r.actions.find(id_of(info->action));
+  if (it == r.actions.end()) return XR_ERROR_HANDLE_INVALID;
+  if (!r.action_sets[it->second.set] || !s->attached) return XR_ERROR_ACTIONSET_NOT_ATTACHED;
+  if (it->second.type != type) return XR_ERROR_ACTION_TYPE_MISMATCH;
+  const auto& subs = it->second.subactions;
+  if (info->subactionPath != XR_NULL_PATH && std::find(subs.begin(), subs.end(), info->subactionPath) == subs.end())
+    return XR_ERROR_PATH_UNSUPPORTED;
+  action = &it->second;
+  return XR_SUCCESS;
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL GetActionStatePose(XrSession session, const XrActionStateGetInfo* info,
+                                                  XrActionStatePose* state) {
+  Runtime& r = rt();
+  std::lock_guard lock(r.mu);
+  const ActionData* action = nullptr;
+  const XrResult res = checked_action(r, session, info, XR_ACTION_TYPE_POSE_INPUT, action);
+  if (XR_FAILED(res)) return res;
+  if (!state || state->type != XR_TYPE_ACTION_STATE_POSE) return XR_ERROR_VALIDATION_FAILURE;
+  SpaceData probe{session, XR_REFERENCE_SPACE_TYPE_VIEW, Rigid::Identity(), id_of(info->action), info->subactionPath};
+  state->isActive = action_space_input(r, probe) ? XR_TRUE : XR_FALSE;
+  return XR_SUCCESS;
+}
+
+template <class State>
+XrResult inactive_state(XrSession session, const XrActionStateGetInfo* info, XrActionType type, XrStructureType st,
+                        State* state) {
+  Runtime& r = rt();
+  std::lock_guard lock(r.mu);
+  const ActionData* action = nullptr;
+  const XrResult res = checked_action(r, session, info, type, action);
+  if (XR_FAILED(res)) return res;
+  if (!state || state->type != st) return XR_ERROR_VALIDATION_FAILURE;
+  void* next = state->next;
+  *state = State{};
+  state->type = st;
+  state->next = next;
+  return XR_SUCCESS;
+}
+XRAPI_ATTR XrResult XRAPI_CALL GetActionStateBoolean(XrSession session, const XrActionStateGetInfo* info,
+                                                     XrActionStateBoolean* state) {
+  return inactive_state(session, info, XR_ACTION_TYPE_BOOLEAN_INPUT, XR_TYPE_ACTION_STATE_BOOLEAN, state);
+}
+XRAPI_ATTR XrResult XRAPI_CALL GetActionStateFloat(XrSession session, const XrActionStateGetInfo* info,
+                                                   XrActionStateFloat* state) {
+  return inactive_state(session, info, XR_ACTION_TYPE_FLOAT_INPUT, XR_TYPE_ACTION_STATE_FLOAT, state);
+}
+XRAPI_ATTR XrResult XRAPI_CALL GetActionStateVector2f(XrSession session, const XrActionStateGetInfo* info,
+                                                      XrActionStateVector2f* state) {
+  return inactive_state(session, info, XR_ACTION_TYPE_VECTOR2F_INPUT, XR_TYPE_ACTION_STATE_VECTOR2F, state);
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL ApplyHapticFeedback(XrSession session, const XrHapticActionInfo* info,
+                                                   const XrHapticBaseHeader*) {
+  Runtime& r = rt();
+  std::lock_guard lock(r.mu);
+  if (!find_session(r, session)) return XR_ERROR_HANDLE_INVALID;
+  if (!info || info->type != XR_TYPE_HAPTIC_ACTION_INFO) return XR_ERROR_VALIDATION_FAILURE;
+  return r.actions.count(id_of(info->action)) ? XR_SUCCESS : XR_ERROR_HANDLE_INVALID;
+}
+XRAPI_ATTR XrResult XRAPI_CALL StopHapticFeedback(XrSession session, const XrHapticActionInfo* info) {
+  return ApplyHapticFeedback(session, info, nullptr);
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL EnumerateBoundSourcesForAction(XrSession session,
+                                                              const XrBoundSourcesForActionEnumerateInfo* info,
+                                                              uint32_t capacity, uint32_t* count, XrPath* sources) {
+  Runtime& r = rt();
+  std::lock_guard lock(r.mu);
+  SessionData* s = find_session(r, session);
+  if (!s) return XR_ERROR_HANDLE_INVALID;
+  if (!info || info->type != XR_TYPE_BOUND_SOURCES_FOR_ACTION_ENUMERATE_INFO) return XR_ERROR_VALIDATION_FAILURE;
+  const auto it = r.actions.find(id_of(info->action));
+  if (it == r.actions.end()) return XR_ERROR_HANDLE_INVALID;
+  if (!s->attached) return XR_ERROR_ACTIONSET_NOT_ATTACHED;
+  // Sources are the bound input paths; as paths the app did not make they are not listed
+  // here (no path is created behind the app's back): none.
+  return two_call<XrPath>(capacity, count, sources, nullptr, 0);
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL GetInputSourceLocalizedName(XrSession session,
+                                                           const XrInputSourceLocalizedNameGetInfo* info,
+                                                           uint32_t, uint32_t*, char*) {
+  Runtime& r = rt();
+  std::lock_guard lock(r.mu);
+  if (!find_session(r, session)) return XR_ERROR_HANDLE_INVALID;
+  if (!info || info->type != XR_TYPE_INPUT_SOURCE_LOCALIZED_NAME_GET_INFO) return XR_ERROR_VALIDATION_FAILURE;
+  return XR_ERROR_PATH_INVALID;  // no source is ever enumerated (above)
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL CreateActionSpace(XrSession session, const XrActionSpaceCreateInfo* info,
+                                                 XrSpace* space) {
+  Runtime& r = rt();
+  std::lock_guard lock(r.mu);
+  if (!find_session(r, session)) return XR_ERROR_HANDLE_INVALID;
+  if (!info || !space || info->type != XR_TYPE_ACTION_SPACE_CREATE_INFO) return XR_ERROR_VALIDATION_FAILURE;
+  const auto it = r.actions.find(id_of(info->action));
+  if (it == r.actions.end()) return XR_ERROR_HANDLE_INVALID;
+  if (it->second.type != XR_ACTION_TYPE_POSE_INPUT) return XR_ERROR_ACTION_TYPE_MISMATCH;
+  const auto& subs = it->second.subactions;
+  if (info->subactionPath != XR_NULL_PATH && std::find(subs.begin(), subs.end(), info->subactionPath) == subs.end())
+    return XR_ERROR_PATH_UNSUPPORTED;
+  const XrQuaternionf& q = info->poseInActionSpace.orientation;
+  const float n = q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w;
+  if (!xr::finite(info->poseInActionSpace.position) || !std::isfinite(n) || std::fabs(n - 1.0f) > 1e-3f)
+    return XR_ERROR_POSE_INVALID;
+  const XrSpace s = handle_of<XrSpace>(r.next_handle++);
+  r.spaces[id_of(s)] = SpaceData{session, XR_REFERENCE_SPACE_TYPE_VIEW, xr::to_rigid(info->poseInActionSpace),
+                                 it->first, info->subactionPath};
+  *space = s;
+  return XR_SUCCESS;
+}
+
 // ---------------------------------------------------------------- dispatch
 
 XRAPI_ATTR XrResult XRAPI_CALL GetInstanceProcAddr(XrInstance instance, const char* name, PFN_xrVoidFunction* fn);
@@ -898,6 +1314,13 @@ const Entry kEntries[] = {
     HS_ENTRY(CreateReferenceSpace, 0), HS_ENTRY(DestroySpace, 0), HS_ENTRY(LocateSpace, 0),
     HS_ENTRY(CreateHandTrackerEXT, 1), HS_ENTRY(DestroyHandTrackerEXT, 1), HS_ENTRY(LocateHandJointsEXT, 1),
     HS_ENTRY(ConvertTimespecTimeToTimeKHR, 2), HS_ENTRY(ConvertTimeToTimespecTimeKHR, 2), HS_ENTRY(GetHandMeshFB, 3),
+    HS_ENTRY(StringToPath, 0), HS_ENTRY(PathToString, 0), HS_ENTRY(CreateActionSet, 0), HS_ENTRY(DestroyActionSet, 0),
+    HS_ENTRY(CreateAction, 0), HS_ENTRY(DestroyAction, 0), HS_ENTRY(SuggestInteractionProfileBindings, 0),
+    HS_ENTRY(AttachSessionActionSets, 0), HS_ENTRY(GetCurrentInteractionProfile, 0), HS_ENTRY(SyncActions, 0),
+    HS_ENTRY(GetActionStateBoolean, 0), HS_ENTRY(GetActionStateFloat, 0), HS_ENTRY(GetActionStateVector2f, 0),
+    HS_ENTRY(GetActionStatePose, 0), HS_ENTRY(ApplyHapticFeedback, 0), HS_ENTRY(StopHapticFeedback, 0),
+    HS_ENTRY(EnumerateBoundSourcesForAction, 0), HS_ENTRY(GetInputSourceLocalizedName, 0),
+    HS_ENTRY(CreateActionSpace, 0),
 };
 #undef HS_ENTRY
 

@@ -16,7 +16,7 @@ using namespace hs::xrtest;
 namespace {
 
 // One answer with everything an app may chain: velocities, Meta's capsules, aim and hand
-// scale (overridden).
+// scale (overridden). Each frame also syncs and locates XR_EXT_hand_interaction's poses.
 struct Answer {
   std::array<XrHandJointLocationEXT, XR_HAND_JOINT_COUNT_EXT> loc{};
   std::array<XrHandJointVelocityEXT, XR_HAND_JOINT_COUNT_EXT> vel{};
@@ -39,7 +39,7 @@ XrResult locate_all(const App& app, XrHandEXT hand, XrTime time, Answer& a) {
 
 }  // namespace
 
-TEST_CASE("once a tracker runs, locating its joints allocates nothing (layer, loader, runtime, worker)") {
+TEST_CASE("once a tracker runs, locating its joints and poses allocates nothing (layer, loader, runtime, worker)") {
   // Counted over whole frames (xrWaitFrame/xrBeginFrame/xrEndFrame included), so that the
   // worker's steps between the app's calls count too. Malloc and operator new both
   // (operator new alone in sanitizer builds, which interpose malloc themselves).
@@ -63,22 +63,32 @@ TEST_CASE("once a tracker runs, locating its joints allocates nothing (layer, lo
         if (engine == "stgae-lockstep") set_env("HANDSTEADY_WORKER", "lockstep");
         enable_layers({kLayer});
         App app(true, {XR_FB_HAND_TRACKING_CAPSULES_EXTENSION_NAME, XR_FB_HAND_TRACKING_AIM_EXTENSION_NAME,
-                       XR_FB_HAND_TRACKING_MESH_EXTENSION_NAME});
+                       XR_FB_HAND_TRACKING_MESH_EXTENSION_NAME, kHandInteractionExt});
+        const HandInteraction hi(app);
         Answer a;
         long failed = 0, answered = 0;
-        for (int i = 0; i < 60; ++i) {  // warm: the engine's first answers, every log said once
+        // A frame: the hand interaction poses synced and located, before the joints on odd
+        // frames (the layer then answers for the hand first) and after them on even ones.
+        const auto frame = [&](int i, bool count) {
           const XrTime T = app.frame();
-          for (XrHandEXT hand : {XR_HAND_LEFT_EXT, XR_HAND_RIGHT_EXT}) failed += locate_all(app, hand, T, a) != XR_SUCCESS;
-        }
+          hi.sync(app);
+          for (XrHandEXT hand : {XR_HAND_LEFT_EXT, XR_HAND_RIGHT_EXT}) {
+            const auto poses = [&] {
+              for (XrSpace s : hi.spaces[hand - 1]) {
+                XrSpaceLocation loc{XR_TYPE_SPACE_LOCATION, nullptr, 0, {{0, 0, 0, 1}, {0, 0, 0}}};
+                failed += xrLocateSpace(s, app.view, T, &loc) != XR_SUCCESS;
+              }
+            };
+            if (i % 2 == 1) poses();
+            failed += locate_all(app, hand, T, a) != XR_SUCCESS;
+            if (i % 2 == 0) poses();
+            answered += count;
+          }
+        };
+        for (int i = 0; i < 60; ++i) frame(i, false);  // warm: the engine's first answers, every log said once
         test::g_allocations = 0;
         test::g_counting = true;
-        for (int i = 0; i < 150; ++i) {
-          const XrTime T = app.frame();
-          for (XrHandEXT hand : {XR_HAND_LEFT_EXT, XR_HAND_RIGHT_EXT}) {
-            failed += locate_all(app, hand, T, a) != XR_SUCCESS;
-            ++answered;
-          }
-        }
+        for (int i = 0; i < 150; ++i) frame(i, true);
         test::g_counting = false;
         const long allocations = test::g_allocations;
         const std::string what = engine + " " + mode + (faults ? " with faults" : "");

@@ -4,12 +4,16 @@
 // "raw" is the runtime's own answer at that time (the layer's raw side channel).
 #include <doctest/doctest.h>
 
+#include <array>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <limits>
+#include <string>
 #include <thread>
+#include <vector>
 
 #include <time.h>
 
@@ -723,6 +727,142 @@ TEST_CASE("Meta's hand capsules and aim (XR_FB_hand_tracking_capsules, _aim) mov
       });
     }
     check_logged_once(log, "hand capsules or aim");
+  }
+}
+
+namespace {
+
+XrSpaceLocation locate_space(XrSpace space, XrSpace base, XrTime time) {
+  XrSpaceLocation loc{XR_TYPE_SPACE_LOCATION, nullptr, 0, {{0, 0, 0, 1}, {0, 0, 0}}};
+  REQUIRE(xrLocateSpace(space, base, time, &loc) == XR_SUCCESS);
+  return loc;
+}
+
+Eigen::Vector3d at(const Joints& j, int k) { return xr::to_eigen(j.loc[static_cast<size_t>(k)].pose.position); }
+double angle_between(const XrQuaternionf& a, const XrQuaternionf& b) {
+  return xr::to_eigen(a).normalized().angularDistance(xr::to_eigen(b).normalized());
+}
+constexpr XrSpaceLocationFlags kPoseValid = XR_SPACE_LOCATION_POSITION_VALID_BIT | XR_SPACE_LOCATION_ORIENTATION_VALID_BIT;
+
+}  // namespace
+
+TEST_CASE("the hand interaction profile's poses (XR_EXT_hand_interaction: grip, aim, pinch, poke) move with the "
+          "joints the layer answers") {
+  // The runtime derives them from its own joints, and the app locates them as action
+  // spaces. Before, the layer moved the joints and left those poses where the runtime put
+  // them: a poke or a pinch off the finger the app draws (millimetres when denoising,
+  // centimetres when predicting; "predicted visuals vs unpredicted input disagree").
+  const std::vector<const char*> ext = {XR_NOVENDOR_HANDSTEADY_RAW_JOINTS_EXTENSION_NAME, kHandInteractionExt};
+  const TrackFiles f = make_tracks("hand_interaction", 2.0);
+  SUBCASE("each pose rides on its joints, before or after the app locates them") {
+    each_engine_and_mode(f, [] { set_env("HANDSTEADY_SHIM_HEAD_MOTION", "1"); }, [&](const std::string& engine, const std::string& mode) {
+      App app(true, ext);
+      const HandInteraction hi(app);
+      double grip_off = 0.0, grip_turn = 0.0, poke_off = 0.0, poke_turn = 0.0, pinch_off = 0.0, aim_off = 0.0,
+             aim_turn = 0.0, offset_off = 0.0, runtime_sum = 0.0, runtime_max = 0.0;
+      long located = 0, frames = 0;
+      for (int i = 0; i < 120; ++i) {
+        const XrTime T = app.frame();
+        hi.sync(app);
+        for (XrHandEXT hand : {XR_HAND_LEFT_EXT, XR_HAND_RIGHT_EXT}) {
+          // Odd frames: the poses first (the layer answers for the hand then), even: the joints first.
+          const bool poses_first = i % 2 == 1;
+          std::array<XrSpaceLocation, 5> l{};
+          const auto locate_poses = [&] {
+            for (size_t k = 0; k < 4; ++k) l[k] = locate_space(hi.spaces[hand - 1][k], app.view, T);
+            l[4] = locate_space(hi.poke_offset[hand - 1], app.view, T);
+          };
+          if (poses_first) locate_poses();
+          const Joints j = app.locate(hand, app.view, T);
+          const Joints r = app.locate_raw(hand, app.view, T);
+          if (!poses_first) locate_poses();
+          REQUIRE(j.result == XR_SUCCESS);
+          REQUIRE(j.active);
+          ++frames;
+          for (const XrSpaceLocation& loc : l) located += (loc.locationFlags & kPoseValid) == kPoseValid;
+          const auto pos = [&](int k) { return xr::to_eigen(l[static_cast<size_t>(k)].pose.position); };
+          grip_off = std::max(grip_off, (pos(kGrip) - at(j, XR_HAND_JOINT_PALM_EXT)).norm());
+          grip_turn = std::max(grip_turn, angle_between(l[kGrip].pose.orientation, j.loc[XR_HAND_JOINT_PALM_EXT].pose.orientation));
+          poke_off = std::max(poke_off, (pos(kPoke) - at(j, XR_HAND_JOINT_INDEX_TIP_EXT)).norm());
+          poke_turn = std::max(poke_turn, angle_between(l[kPoke].pose.orientation, j.loc[XR_HAND_JOINT_INDEX_TIP_EXT].pose.orientation));
+          pinch_off = std::max(pinch_off, (pos(kPinch) - 0.5 * (at(j, XR_HAND_JOINT_THUMB_TIP_EXT) + at(j, XR_HAND_JOINT_INDEX_TIP_EXT))).norm());
+          // The aim: where the runtime puts it relative to the palm (at the index finger's
+          // proximal joint here), its direction the runtime's (the palm's here).
+          aim_off = std::max(aim_off, ((pos(kAim) - at(j, XR_HAND_JOINT_PALM_EXT)) -
+                                       (at(r, XR_HAND_JOINT_INDEX_PROXIMAL_EXT) - at(r, XR_HAND_JOINT_PALM_EXT))).norm());
+          aim_turn = std::max(aim_turn, angle_between(l[kAim].pose.orientation, r.loc[XR_HAND_JOINT_PALM_EXT].pose.orientation));
+          const xr::Rigid tip_offset = xr::to_rigid(j.loc[XR_HAND_JOINT_INDEX_TIP_EXT].pose) * xr::to_rigid(hi.offset);
+          offset_off = std::max(offset_off, (pos(4) - tip_offset.translation()).norm());
+          // Where the runtime's poke is: off the drawn finger by the layer's correction.
+          const double d = (at(r, XR_HAND_JOINT_INDEX_TIP_EXT) - at(j, XR_HAND_JOINT_INDEX_TIP_EXT)).norm();
+          runtime_sum += d;
+          runtime_max = std::max(runtime_max, d);
+        }
+      }
+      MESSAGE(engine << " " << mode << ": the runtime's poke " << runtime_sum / static_cast<double>(frames) * 1e3
+                     << " mm (up to " << runtime_max * 1e3 << ") off the answered index tip; the layer's poses off their joints: grip "
+                     << grip_off * 1e3 << " mm " << grip_turn << " rad, poke " << poke_off * 1e3 << " mm " << poke_turn
+                     << " rad, pinch " << pinch_off * 1e3 << " mm, aim off the palm's offset " << aim_off * 1e3
+                     << " mm " << aim_turn << " rad, poke with an offset " << offset_off * 1e3 << " mm");
+      CHECK(frames == 240);
+      CHECK(located == 240 * 5);
+      CHECK(runtime_max > 1e-3);  // the layer did move the hand
+      CHECK(grip_off < 1e-5);
+      CHECK(grip_turn < 1e-3);
+      CHECK(poke_off < 1e-5);
+      CHECK(poke_turn < 1e-3);
+      CHECK(pinch_off < 1e-5);
+      CHECK(aim_off < 1e-5);
+      CHECK(aim_turn < 1e-3);
+      CHECK(offset_off < 1e-5);
+      app.shutdown();
+    });
+  }
+  SUBCASE("garbage from the runtime's joints never reaches the app's poses flagged valid") {
+    const auto log = f.dir / "hand_interaction_faults.log";
+    {
+      test::StderrToFile to_log(log);
+      each_engine_and_mode(f, [] { set_env("HANDSTEADY_SHIM_FAULTS", "nan:0.02,huge:0.02,quat:0.02,origin:0.02,collapse:0.03"); },
+                           [&](const std::string& engine, const std::string& mode) {
+        App app(true, ext);
+        const HandInteraction hi(app);
+        long bad = 0, valid = 0, runtime_bad = 0, frames = 0;
+        for (int i = 0; i < 120; ++i) {
+          const XrTime T = app.frame();
+          hi.sync(app);
+          for (XrHandEXT hand : {XR_HAND_LEFT_EXT, XR_HAND_RIGHT_EXT}) {
+            const Joints j = app.locate(hand, app.local, T);
+            const Joints r = app.locate_raw(hand, app.local, T);
+            REQUIRE(j.result == XR_SUCCESS);
+            if (!j.active) continue;
+            ++frames;
+            // The runtime's poses come from these joints: each garbage one makes one garbage.
+            for (int k : {XR_HAND_JOINT_PALM_EXT, XR_HAND_JOINT_INDEX_PROXIMAL_EXT, XR_HAND_JOINT_THUMB_TIP_EXT,
+                          XR_HAND_JOINT_INDEX_TIP_EXT}) {
+              const Eigen::Vector3d p = at(r, k);
+              runtime_bad += !p.allFinite() || p.norm() > 1e3 || p.norm() < 1e-30 ||
+                             !xr::usable(r.loc[static_cast<size_t>(k)].pose.orientation);
+            }
+            const Eigen::Vector3d palm = at(j, XR_HAND_JOINT_PALM_EXT);
+            for (size_t k = 0; k < 4; ++k) {
+              const XrSpaceLocation loc = locate_space(hi.spaces[hand - 1][k], app.local, T);
+              if ((loc.locationFlags & kPoseValid) != kPoseValid) continue;
+              ++valid;
+              const Eigen::Vector3d p = xr::to_eigen(loc.pose.position);
+              bad += !p.allFinite() || p.norm() > 1e3 || !xr::usable(loc.pose.orientation) ||
+                     (palm.allFinite() && (p - palm).norm() > 0.5);
+            }
+          }
+        }
+        MESSAGE(engine << " " << mode << ": garbage joints under the runtime's poses " << runtime_bad
+                       << ", garbage poses flagged valid from the layer " << bad << " of " << valid);
+        CHECK(runtime_bad > 20);  // the faults reach the joints the poses come from
+        CHECK(bad == 0);
+        CHECK(valid > frames * 4 * 9 / 10);  // only the garbage poses lose their valid bits
+        app.shutdown();
+      });
+    }
+    check_logged_once(log, "hand interaction pose no hand has");
   }
 }
 

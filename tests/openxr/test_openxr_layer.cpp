@@ -11,6 +11,7 @@
 
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -116,6 +117,83 @@ TEST_CASE("replay runtime without layer answers the noisy track exactly, in ever
           CHECK(j.loc[k].radius > 0.0f);
         }
       }
+    }
+  }
+  app.shutdown();
+}
+
+TEST_CASE("the replay runtime's hand interaction profile (XR_EXT_hand_interaction): poses from the tracked hand once "
+          "synced, paths and bindings checked") {
+  const TrackFiles f = make_tracks("replay_actions", 1.0);
+  reset_env(f);
+  set_env("HANDSTEADY_SHIM_HEAD_MOTION", "1");
+  App app(true, {kHandInteractionExt});
+  XrPath p = XR_NULL_PATH;
+  for (const char* bad : {"user/hand/left", "/user//hand", "/User/hand", "/user/hand/", "/user/./hand"}) {
+    CAPTURE(bad);
+    CHECK(xrStringToPath(app.instance, bad, &p) == XR_ERROR_PATH_FORMAT_INVALID);
+  }
+  const HandInteraction hi(app);
+  // Not synced yet: no profile current, the poses not active, their spaces not located.
+  XrPath left = XR_NULL_PATH, profile = XR_NULL_PATH;
+  REQUIRE(xrStringToPath(app.instance, "/user/hand/left", &left) == XR_SUCCESS);
+  REQUIRE(xrStringToPath(app.instance, "/interaction_profiles/ext/hand_interaction_ext", &profile) == XR_SUCCESS);
+  XrInteractionProfileState state{XR_TYPE_INTERACTION_PROFILE_STATE, nullptr, XR_NULL_PATH};
+  REQUIRE(xrGetCurrentInteractionProfile(app.session, left, &state) == XR_SUCCESS);
+  CHECK(state.interactionProfile == XR_NULL_PATH);
+  XrTime T = app.frame();
+  XrSpaceLocation loc{XR_TYPE_SPACE_LOCATION, nullptr, 0, {{0, 0, 0, 1}, {0, 0, 0}}};
+  REQUIRE(xrLocateSpace(hi.spaces[0][kPoke], app.local, T, &loc) == XR_SUCCESS);
+  CHECK(loc.locationFlags == 0);
+  // Bindings are fixed once attached; a path the profile does not have is refused.
+  XrActionSet other = XR_NULL_HANDLE;
+  XrActionSetCreateInfo si{XR_TYPE_ACTION_SET_CREATE_INFO, nullptr, "other", "Other", 0};
+  REQUIRE(xrCreateActionSet(app.instance, &si, &other) == XR_SUCCESS);
+  XrAction value = XR_NULL_HANDLE;
+  XrActionCreateInfo ai{XR_TYPE_ACTION_CREATE_INFO, nullptr, "squeeze", XR_ACTION_TYPE_FLOAT_INPUT, 0, nullptr, "Squeeze"};
+  REQUIRE(xrCreateAction(other, &ai, &value) == XR_SUCCESS);
+  XrPath trigger = XR_NULL_PATH;
+  REQUIRE(xrStringToPath(app.instance, "/user/hand/left/input/trigger/value", &trigger) == XR_SUCCESS);
+  XrActionSuggestedBinding b{value, trigger};
+  const XrInteractionProfileSuggestedBinding sb{XR_TYPE_INTERACTION_PROFILE_SUGGESTED_BINDING, nullptr, profile, 1, &b};
+  CHECK(xrSuggestInteractionProfileBindings(app.instance, &sb) == XR_ERROR_PATH_UNSUPPORTED);
+  b.action = hi.actions[kGrip];
+  CHECK(xrSuggestInteractionProfileBindings(app.instance, &sb) == XR_ERROR_ACTIONSETS_ALREADY_ATTACHED);
+  const XrSessionActionSetsAttachInfo at{XR_TYPE_SESSION_ACTION_SETS_ATTACH_INFO, nullptr, 1, &other};
+  CHECK(xrAttachSessionActionSets(app.session, &at) == XR_ERROR_ACTIONSETS_ALREADY_ATTACHED);
+  // Synced: the profile is current for both hands (announced), its poses where the
+  // runtime's joints are.
+  hi.sync(app);
+  const auto events = app.poll_events();
+  CHECK(std::count_if(events.begin(), events.end(), [](const XrEventDataBuffer& e) {
+          return e.type == XR_TYPE_EVENT_DATA_INTERACTION_PROFILE_CHANGED;
+        }) == 1);
+  REQUIRE(xrGetCurrentInteractionProfile(app.session, left, &state) == XR_SUCCESS);
+  CHECK(state.interactionProfile == profile);
+  for (int i = 0; i < 30; ++i) {
+    T = app.frame();
+    hi.sync(app);
+    for (XrHandEXT hand : {XR_HAND_LEFT_EXT, XR_HAND_RIGHT_EXT}) {
+      const Joints j = app.locate(hand, app.view, T);
+      REQUIRE(j.active);
+      const XrActionStateGetInfo gi{XR_TYPE_ACTION_STATE_GET_INFO, nullptr, hi.actions[kPoke], XR_NULL_PATH};
+      XrActionStatePose pose{XR_TYPE_ACTION_STATE_POSE, nullptr, XR_FALSE};
+      REQUIRE(xrGetActionStatePose(app.session, &gi, &pose) == XR_SUCCESS);
+      CHECK(pose.isActive == XR_TRUE);
+      const auto joint = [&](int k) { return xr::to_eigen(j.loc[static_cast<size_t>(k)].pose.position); };
+      const auto at_pose = [&](XrSpace s) {
+        XrSpaceLocation l{XR_TYPE_SPACE_LOCATION, nullptr, 0, {{0, 0, 0, 1}, {0, 0, 0}}};
+        REQUIRE(xrLocateSpace(s, app.view, T, &l) == XR_SUCCESS);
+        CHECK((l.locationFlags & 0xf) == 0xf);
+        return xr::to_eigen(l.pose.position);
+      };
+      const auto& s = hi.spaces[hand - 1];
+      CHECK((at_pose(s[kGrip]) - joint(XR_HAND_JOINT_PALM_EXT)).norm() < 1e-5);
+      CHECK((at_pose(s[kAim]) - joint(XR_HAND_JOINT_INDEX_PROXIMAL_EXT)).norm() < 1e-5);
+      CHECK((at_pose(s[kPinch]) - 0.5 * (joint(XR_HAND_JOINT_THUMB_TIP_EXT) + joint(XR_HAND_JOINT_INDEX_TIP_EXT))).norm() < 1e-5);
+      CHECK((at_pose(s[kPoke]) - joint(XR_HAND_JOINT_INDEX_TIP_EXT)).norm() < 1e-5);
+      const xr::Rigid want = xr::to_rigid(j.loc[XR_HAND_JOINT_INDEX_TIP_EXT].pose) * xr::to_rigid(hi.offset);
+      CHECK((at_pose(hi.poke_offset[hand - 1]) - want.translation()).norm() < 1e-5);
     }
   }
   app.shutdown();
@@ -585,12 +663,19 @@ TEST_CASE("core validation above and below the layer reports no error") {
     if (above) enable_layers({kCoreValidation, kLayer});
     else enable_layers({kLayer, kCoreValidation});
     {
-      App app;
+      // With XR_EXT_hand_interaction's poses too (the layer hooks actions and spaces then).
+      App app(true, {kHandInteractionExt});
+      const HandInteraction hi(app);
       XrTime T = 0;
       for (int i = 0; i < 100; ++i) {
         T = app.frame();
+        hi.sync(app);
         for (XrHandEXT hand : {XR_HAND_LEFT_EXT, XR_HAND_RIGHT_EXT})
-          for (XrSpace s : {app.local, app.stage, app.view}) CHECK(app.locate(hand, s, T, i % 2 == 0).result == XR_SUCCESS);
+          for (XrSpace s : {app.local, app.stage, app.view}) {
+            CHECK(app.locate(hand, s, T, i % 2 == 0).result == XR_SUCCESS);
+            XrSpaceLocation loc{XR_TYPE_SPACE_LOCATION, nullptr, 0, {{0, 0, 0, 1}, {0, 0, 0}}};
+            CHECK(xrLocateSpace(hi.spaces[hand - 1][i % 4], s, T, &loc) == XR_SUCCESS);
+          }
       }
       bad_call(app, T);
       // Session destroyed with its trackers alive: the implicit destruction path.

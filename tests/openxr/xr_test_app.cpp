@@ -6,8 +6,11 @@
 
 #include <doctest/doctest.h>
 
+#include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <string>
+#include <vector>
 
 namespace hs::xrtest {
 
@@ -283,6 +286,52 @@ void accumulate_error(const Pose& pose, const Pose& truth, double& sum, long& co
     sum += (pose.row(k) - truth.row(k)).norm();
     ++count;
   }
+}
+
+namespace {
+XrPath to_path(XrInstance instance, const std::string& str) {
+  XrPath p = XR_NULL_PATH;
+  REQUIRE(xrStringToPath(instance, str.c_str(), &p) == XR_SUCCESS);
+  return p;
+}
+}  // namespace
+
+HandInteraction::HandInteraction(const App& app) {
+  constexpr std::array<const char*, 4> kNames = {"grip", "aim", "pinch_ext", "poke_ext"};
+  XrActionSetCreateInfo si{XR_TYPE_ACTION_SET_CREATE_INFO, nullptr, "hands", "Hands", 0};
+  REQUIRE(xrCreateActionSet(app.instance, &si, &set) == XR_SUCCESS);
+  const std::array<XrPath, 2> hands = {to_path(app.instance, "/user/hand/left"), to_path(app.instance, "/user/hand/right")};
+  std::vector<XrActionSuggestedBinding> bindings;
+  for (size_t k = 0; k < actions.size(); ++k) {
+    XrActionCreateInfo ai{XR_TYPE_ACTION_CREATE_INFO, nullptr, "", XR_ACTION_TYPE_POSE_INPUT, 2, hands.data(), ""};
+    std::snprintf(ai.actionName, sizeof(ai.actionName), "%s", kNames[k]);
+    std::snprintf(ai.localizedActionName, sizeof(ai.localizedActionName), "%s", kNames[k]);
+    REQUIRE(xrCreateAction(set, &ai, &actions[k]) == XR_SUCCESS);
+    for (const char* side : {"left", "right"})
+      bindings.push_back(
+          {actions[k], to_path(app.instance, std::string("/user/hand/") + side + "/input/" + kNames[k] + "/pose")});
+  }
+  const XrInteractionProfileSuggestedBinding sb{XR_TYPE_INTERACTION_PROFILE_SUGGESTED_BINDING, nullptr,
+                                                to_path(app.instance, "/interaction_profiles/ext/hand_interaction_ext"),
+                                                static_cast<uint32_t>(bindings.size()), bindings.data()};
+  REQUIRE(xrSuggestInteractionProfileBindings(app.instance, &sb) == XR_SUCCESS);
+  const XrSessionActionSetsAttachInfo at{XR_TYPE_SESSION_ACTION_SETS_ATTACH_INFO, nullptr, 1, &set};
+  REQUIRE(xrAttachSessionActionSets(app.session, &at) == XR_SUCCESS);
+  for (size_t h = 0; h < 2; ++h) {
+    for (size_t k = 0; k < actions.size(); ++k) {
+      const XrActionSpaceCreateInfo ci{XR_TYPE_ACTION_SPACE_CREATE_INFO, nullptr, actions[k], hands[h],
+                                       {{0, 0, 0, 1}, {0, 0, 0}}};
+      REQUIRE(xrCreateActionSpace(app.session, &ci, &spaces[h][k]) == XR_SUCCESS);
+    }
+    const XrActionSpaceCreateInfo ci{XR_TYPE_ACTION_SPACE_CREATE_INFO, nullptr, actions[kPoke], hands[h], offset};
+    REQUIRE(xrCreateActionSpace(app.session, &ci, &poke_offset[h]) == XR_SUCCESS);
+  }
+}
+
+void HandInteraction::sync(const App& app) const {
+  const XrActiveActionSet active{set, XR_NULL_PATH};
+  const XrActionsSyncInfo si{XR_TYPE_ACTIONS_SYNC_INFO, nullptr, 1, &active};
+  REQUIRE(xrSyncActions(app.session, &si) == XR_SUCCESS);
 }
 
 }  // namespace hs::xrtest

@@ -1,10 +1,11 @@
 #pragma once
-// What Meta's hand extensions chain to an answer, computed by the runtime from its own
-// joints (XR_FB_hand_tracking_capsules: colliders along the bones; XR_FB_hand_tracking_aim:
-// the pointer pose and pinch strengths), kept with the joints the layer answers: where the
-// layer moves a joint, what hangs on it moves with it, so an app's colliders and pointer
-// stay on the hand it draws. Never garbage, as the joints are not. No allocation, no
-// runtime calls.
+// What runtimes compute from their own joints and hand to the app beside them: Meta's
+// extensions chained to an answer (XR_FB_hand_tracking_capsules: colliders along the
+// bones; XR_FB_hand_tracking_aim: the pointer pose and pinch strengths), and the poses of
+// XR_EXT_hand_interaction's profile (grip, aim, pinch, poke), located as action spaces.
+// Kept with the joints the layer answers: where the layer moves a joint, what hangs on it
+// moves with it, so an app's colliders, pointer and poke stay on the hand it draws. Never
+// garbage, as the joints are not. No allocation, no runtime calls.
 #include "joint_rewrite.hpp"
 
 #include <openxr/openxr.h>
@@ -37,5 +38,20 @@ int move_capsules(const JointsBefore& before, const XrHandJointLocationEXT* afte
 // palm's answered pose; pinch strengths outside [0, 1] are clamped (NaN: 0). Returns the
 // number of repairs.
 int move_aim(const JointsBefore& before, const XrHandJointLocationEXT* after, XrHandTrackingAimStateFB& aim) noexcept;
+
+// The pose inputs of XR_EXT_hand_interaction's profile (`/input/<name>/pose`), which a
+// runtime derives from the tracked hand.
+enum class HandPose { None, Grip, Aim, Pinch, Poke };
+
+// An action space's location of such a pose (`loc`: the runtime's, in the base space the
+// joints were answered in; pose_in_action: the space's offset in the action's pose) moves
+// with the joints it sits on: grip with the palm's rigid change, poke with the index tip's;
+// aim with the palm's position change (direction kept, as move_aim); pinch with the mean
+// position change of the thumb's and index finger's tips (orientation kept). A location
+// flagged valid that no hand has (non-finite, an unusable orientation, beyond 1 km, or the
+// action's own pose 50 cm from the answered palm) loses its valid and tracked bits.
+// Returns 1 for such a repair, else 0.
+int move_hand_pose(HandPose pose, const JointsBefore& before, const XrHandJointLocationEXT* after,
+                   const XrPosef& pose_in_action, XrSpaceLocation& loc) noexcept;
 
 }  // namespace hs::layer

@@ -1,4 +1,4 @@
-#include "fb_hand_state.hpp"
+#include "hand_attachments.hpp"
 
 #include "handsteady_xr/xr_math.hpp"
 
@@ -102,6 +102,47 @@ int move_aim(const JointsBefore& before, const XrHandJointLocationEXT* after, Xr
   aim.aimPose.position = anchor ? xr::to_xr(*anchor) : XrVector3f{0.0f, 0.0f, 0.0f};
   aim.aimPose.orientation = xr::usable(palm.pose.orientation) ? palm.pose.orientation : XrQuaternionf{0, 0, 0, 1};
   return changed + 1;
+}
+
+int move_hand_pose(HandPose pose, const JointsBefore& before, const XrHandJointLocationEXT* after,
+                   const XrPosef& pose_in_action, XrSpaceLocation& loc) noexcept {
+  constexpr XrSpaceLocationFlags kAll = XR_SPACE_LOCATION_POSITION_VALID_BIT | XR_SPACE_LOCATION_POSITION_TRACKED_BIT |
+                                        XR_SPACE_LOCATION_ORIENTATION_VALID_BIT |
+                                        XR_SPACE_LOCATION_ORIENTATION_TRACKED_BIT;
+  if (pose == HandPose::None || !(loc.locationFlags & XR_SPACE_LOCATION_POSITION_VALID_BIT)) return 0;
+  const bool oriented = (loc.locationFlags & XR_SPACE_LOCATION_ORIENTATION_VALID_BIT) != 0;
+  Eigen::Vector3d p = xr::to_eigen(loc.pose.position);
+  Eigen::Quaterniond q = xr::to_eigen(loc.pose.orientation);
+  const bool usable = p.allFinite() && p.norm() < kMaxNormM && (!oriented || xr::usable(loc.pose.orientation));
+  if (usable) {
+    // The position change of joint j (a rigid change's translation is not: it carries the rotation about the origin).
+    const auto shift = [&](int j) {
+      const Eigen::Vector3d at = xr::to_eigen(before.loc[static_cast<size_t>(j)].pose.position);
+      const Eigen::Vector3d d = joint_change(before, after, j) * at - at;
+      return d.allFinite() ? d : Eigen::Vector3d::Zero();
+    };
+    if (pose == HandPose::Grip || pose == HandPose::Poke) {
+      const xr::Rigid change =
+          joint_change(before, after, pose == HandPose::Grip ? XR_HAND_JOINT_PALM_EXT : XR_HAND_JOINT_INDEX_TIP_EXT);
+      p = change * p;
+      if (oriented) q = Eigen::Quaterniond(change.rotation()) * q.normalized();
+    } else if (pose == HandPose::Aim) {
+      p += shift(XR_HAND_JOINT_PALM_EXT);
+    } else {
+      p += 0.5 * (shift(XR_HAND_JOINT_THUMB_TIP_EXT) + shift(XR_HAND_JOINT_INDEX_TIP_EXT));
+    }
+    // The action's own pose (without the app's offset in it) is on or near the hand.
+    const xr::Rigid located = xr::to_rigid(XrPosef{oriented ? xr::to_xr(q) : XrQuaternionf{0, 0, 0, 1}, xr::to_xr(p)});
+    const Eigen::Vector3d origin = (located * xr::to_rigid(pose_in_action).inverse()).translation();
+    const std::optional<Eigen::Vector3d> palm = place(after[XR_HAND_JOINT_PALM_EXT]);
+    if (plausible_near(origin, palm, kMaxAimFromPalmM)) {
+      loc.pose.position = xr::to_xr(p);
+      if (oriented) loc.pose.orientation = xr::to_xr(q.normalized());
+      return 0;
+    }
+  }
+  loc.locationFlags &= ~kAll;
+  return 1;
 }
 
 }  // namespace hs::layer
