@@ -882,6 +882,9 @@ bool hand_answer(XrSession session, int hand, XrSpace base, XrTime time, JointsB
 // layer's answer for its hand at that time, never garbage.
 void move_action_space(const ActionSpaceData& as, const std::array<HandPose, 2>& poses, XrSpace base, XrTime time,
                        XrSpaceLocation& loc) noexcept {
+  // Not located: nothing to move (and the runtime locates an action's pose only once the
+  // app attached its actions: the profile is asked for only then).
+  if (!(loc.locationFlags & XR_SPACE_LOCATION_POSITION_VALID_BIT)) return;
   const InstanceData& d = *as.inst;
   int hand = as.hand;
   if (hand < 0) {
