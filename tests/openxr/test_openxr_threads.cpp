@@ -1,6 +1,8 @@
 // Several threads on the same hand trackers (and one more creating and destroying its
 // own tracker) while the main thread runs frames: no crash, no failed call, no data race
-// (this test runs under ThreadSanitizer: label "tsan"), and answers stay sane.
+// (this test runs under ThreadSanitizer: label "tsan"), and answers stay sane. The first
+// test's threads locate XR_EXT_hand_interaction's poses too (the layer answers for the
+// hand in those calls), and its churning thread makes and drops action spaces.
 #include "handsteady/track_ops.hpp"
 #include "handsteady_xr/xr_math.hpp"
 #include "test_support.hpp"
@@ -16,12 +18,14 @@
 using namespace hs;
 using namespace hs::xrtest;
 
-TEST_CASE("several threads locate the same trackers at various times and spaces") {
+TEST_CASE("several threads locate the same trackers and their hand poses at various times and spaces") {
   const TrackFiles f = make_tracks("threads", 4.0);
   reset_env(f);
   set_env("HANDSTEADY_SHIM_HEAD_MOTION", "1");
   enable_layers({kLayer});
-  App app;
+  App app(true, {kHandInteractionExt});
+  const HandInteraction hi(app);
+  hi.sync(app);
   std::atomic<XrTime> now{app.frame()};
   std::atomic<bool> stop{false};
   std::atomic<long> calls{0}, failures{0}, insane{0};
@@ -33,6 +37,16 @@ TEST_CASE("several threads locate the same trackers at various times and spaces"
       const XrTime t = T - static_cast<XrTime>((i * 7 + id * 3) % 5) * 4'000'000;  // older, repeated, irregular
       const XrHandEXT hand = (i + id) % 2 ? XR_HAND_LEFT_EXT : XR_HAND_RIGHT_EXT;
       const XrSpace base = (i + id) % 3 == 0 ? app.local : (i + id) % 3 == 1 ? app.view : app.stage;
+      if (i % 3 == 2) {  // a hand pose instead of the joints
+        XrSpaceLocation loc{XR_TYPE_SPACE_LOCATION, nullptr, 0, {{0, 0, 0, 1}, {0, 0, 0}}};
+        if (xrLocateSpace(hi.spaces[hand - 1][static_cast<size_t>(i + id) % 4], base, t, &loc) != XR_SUCCESS) ++failures;
+        else if ((loc.locationFlags & XR_SPACE_LOCATION_POSITION_VALID_BIT) &&
+                 (!xr::finite(loc.pose.position) || loc.pose.position.y < -3.0f || loc.pose.position.y > 3.0f))
+          ++insane;
+        ++calls;
+        ++i;
+        continue;
+      }
       const Joints j = app.locate(hand, base, t, i % 2 == 0);
       ++calls;
       if (j.result != XR_SUCCESS) ++failures;
@@ -66,6 +80,17 @@ TEST_CASE("several threads locate the same trackers at various times and spaces"
       info.time = now.load();
       if (app.locate_joints(t, &info, &out) != XR_SUCCESS) ++failures;
       if (app.destroy_tracker(t) != XR_SUCCESS) ++failures;
+      // An action space of the poke, made, located and dropped.
+      const XrActionSpaceCreateInfo ci{XR_TYPE_ACTION_SPACE_CREATE_INFO, nullptr, hi.actions[kPoke], XR_NULL_PATH,
+                                       {{0, 0, 0, 1}, {0, 0, 0}}};
+      XrSpace space = XR_NULL_HANDLE;
+      if (xrCreateActionSpace(app.session, &ci, &space) != XR_SUCCESS) {
+        ++failures;
+      } else {
+        XrSpaceLocation at{XR_TYPE_SPACE_LOCATION, nullptr, 0, {{0, 0, 0, 1}, {0, 0, 0}}};
+        if (xrLocateSpace(space, app.view, now.load(), &at) != XR_SUCCESS) ++failures;
+        if (xrDestroySpace(space) != XR_SUCCESS) ++failures;
+      }
       ++calls;
       std::this_thread::sleep_for(std::chrono::microseconds(200));
     }
@@ -75,6 +100,7 @@ TEST_CASE("several threads locate the same trackers at various times and spaces"
   threads.emplace_back(churn);
   for (int frame = 0; frame < 120; ++frame) {
     now = app.frame();
+    hi.sync(app);
     // The main thread locates too, like a render loop would.
     for (XrHandEXT hand : {XR_HAND_LEFT_EXT, XR_HAND_RIGHT_EXT})
       CHECK(app.locate(hand, app.local, now.load()).result == XR_SUCCESS);
