@@ -40,7 +40,8 @@ int move_capsules(const JointsBefore& before, const XrHandJointLocationEXT* afte
 int move_aim(const JointsBefore& before, const XrHandJointLocationEXT* after, XrHandTrackingAimStateFB& aim) noexcept;
 
 // The pose inputs of XR_EXT_hand_interaction's profile (`/input/<name>/pose`), which a
-// runtime derives from the tracked hand.
+// runtime derives from the tracked hand (the palm's, XR_EXT_palm_pose's `palm_ext` and
+// OpenXR 1.1's `grip_surface`, move as the grip).
 enum class HandPose { None, Grip, Aim, Pinch, Poke };
 
 // An action space's location of such a pose (`loc`: the runtime's, in the base space the

@@ -56,6 +56,18 @@ namespace {
 constexpr const char* kLayerName = "XR_APILAYER_NOVENDOR_handsteady";
 // Not in older SDK headers (the extension defines only paths, no structures).
 constexpr const char* kHandInteractionExtension = "XR_EXT_hand_interaction";
+// The hand interaction profile's poses (`/input/<name>/pose`) and what each moves with: the
+// extension's four, XR_EXT_palm_pose's palm and OpenXR 1.1's grip surface (both at the palm).
+struct PoseInput {
+  const char* name;
+  HandPose pose;
+};
+constexpr std::array<PoseInput, 6> kPoseInputs = {{{"grip", HandPose::Grip},
+                                                    {"aim", HandPose::Aim},
+                                                    {"pinch_ext", HandPose::Pinch},
+                                                    {"poke_ext", HandPose::Poke},
+                                                    {"palm_ext", HandPose::Grip},
+                                                    {"grip_surface", HandPose::Grip}}};
 // The most joints a joint set the layer filters has (Ultraleap's forearm set: the hand's 26 and the elbow).
 constexpr uint32_t kMaxJoints = XR_HAND_FOREARM_JOINT_COUNT_ULTRALEAP;
 #ifndef HS_LAYER_ISA
@@ -121,8 +133,8 @@ struct InstanceData {
   bool hand_interaction = false;
   XrPath hand_profile = XR_NULL_PATH;          // /interaction_profiles/ext/hand_interaction_ext
   std::array<XrPath, 2> user_hand{};           // /user/hand/left, /user/hand/right
-  // The profile's pose inputs per hand: [hand][HandPose - 1] (grip, aim, pinch_ext, poke_ext).
-  std::array<std::array<XrPath, 4>, 2> pose_input{};
+  // The profile's pose inputs per hand: [hand][kPoseInputs' index].
+  std::array<std::array<XrPath, 6>, 2> pose_input{};
   LayerConfig config;
   std::unique_ptr<HandTuning> tuning;  // per-hand smoothing and horizon, live
 
@@ -760,10 +772,9 @@ XRAPI_ATTR XrResult XRAPI_CALL LocateHandJointsEXT(XrHandTrackerEXT tracker, con
 
 // The pose input of the hand interaction profile a binding path is: its hand and pose.
 std::optional<std::pair<int, HandPose>> hand_pose_input(const InstanceData& d, XrPath path) noexcept {
-  for (int h = 0; h < 2; ++h)
-    for (int k = 0; k < 4; ++k)
-      if (d.pose_input[static_cast<size_t>(h)][static_cast<size_t>(k)] == path)
-        return std::pair{h, static_cast<HandPose>(k + 1)};
+  for (size_t h = 0; h < 2; ++h)
+    for (size_t k = 0; k < kPoseInputs.size(); ++k)
+      if (d.pose_input[h][k] == path) return std::pair{static_cast<int>(h), kPoseInputs[k].pose};
   return std::nullopt;
 }
 
@@ -1119,15 +1130,10 @@ bool load_hand_interaction(InstanceData& d) noexcept {
   const auto path = [&](const char* str, XrPath& out) { ok = ok && to_path(d.instance, str, &out) == XR_SUCCESS; };
   path("/interaction_profiles/ext/hand_interaction_ext", d.hand_profile);
   constexpr std::array<const char*, 2> kHands = {"/user/hand/left", "/user/hand/right"};
-  constexpr std::array<std::array<const char*, 4>, 2> kInputs = {{
-      {"/user/hand/left/input/grip/pose", "/user/hand/left/input/aim/pose", "/user/hand/left/input/pinch_ext/pose",
-       "/user/hand/left/input/poke_ext/pose"},
-      {"/user/hand/right/input/grip/pose", "/user/hand/right/input/aim/pose", "/user/hand/right/input/pinch_ext/pose",
-       "/user/hand/right/input/poke_ext/pose"},
-  }};
   for (size_t h = 0; h < 2; ++h) {
     path(kHands[h], d.user_hand[h]);
-    for (size_t k = 0; k < 4; ++k) path(kInputs[h][k], d.pose_input[h][k]);
+    for (size_t k = 0; k < kPoseInputs.size(); ++k)
+      path(fmt::format("{}/input/{}/pose", kHands[h], kPoseInputs[k].name).c_str(), d.pose_input[h][k]);
   }
   if (!ok)
     log(LogLevel::Warn, "the runtime lacks the action functions or paths of XR_EXT_hand_interaction: its poses pass "

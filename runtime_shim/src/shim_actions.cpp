@@ -29,7 +29,8 @@ std::optional<int> user_hand(std::string_view path) {
 }
 
 std::optional<HandBinding> hand_binding(std::string_view path) {
-  constexpr std::array<std::pair<std::string_view, HandInput>, 10> kInputs = {{
+  constexpr std::array<std::pair<std::string_view, HandInput>, 11> kInputs = {{
+      {"/input/palm_ext/pose", HandInput::PalmPose},
       {"/input/grip/pose", HandInput::GripPose},
       {"/input/aim/pose", HandInput::AimPose},
       {"/input/pinch_ext/pose", HandInput::PinchPose},

@@ -13,6 +13,9 @@ namespace hs::shim {
 // Not in older SDK headers (the extension has no structures of its own, only paths).
 constexpr const char* kHandInteractionExtension = "XR_EXT_hand_interaction";
 constexpr uint32_t kHandInteractionSpecVersion = 1;
+// Adds `/input/palm_ext/pose` to the profiles (here: the hand interaction profile).
+constexpr const char* kPalmPoseExtension = "XR_EXT_palm_pose";
+constexpr uint32_t kPalmPoseSpecVersion = 2;
 constexpr std::string_view kHandInteractionProfile = "/interaction_profiles/ext/hand_interaction_ext";
 // Accepted for suggestions (apps suggest several profiles), never current: no controllers here.
 constexpr std::string_view kSimpleControllerProfile = "/interaction_profiles/khr/simple_controller";
@@ -26,17 +29,18 @@ bool well_formed_path(std::string_view path);
 // The hand a top-level user path names: 0 left, 1 right.
 std::optional<int> user_hand(std::string_view path);
 
-enum class HandInput { GripPose, AimPose, PinchPose, PokePose, PinchValue, PinchReady, AimActivateValue,
+enum class HandInput { GripPose, AimPose, PinchPose, PokePose, PalmPose, PinchValue, PinchReady, AimActivateValue,
                        AimActivateReady, GraspValue, GraspReady };
 struct HandBinding {
   int hand;  // 0 left, 1 right
   HandInput input;
 };
-// A binding path of the hand interaction profile ("/user/hand/left/input/pinch_ext/pose"); nullopt
-// for any other path.
+// A binding path of the hand interaction profile ("/user/hand/left/input/pinch_ext/pose"; the
+// palm's only with XR_EXT_palm_pose, which the caller checks); nullopt for any other path.
 std::optional<HandBinding> hand_binding(std::string_view path);
 inline bool is_pose(HandInput i) {
-  return i == HandInput::GripPose || i == HandInput::AimPose || i == HandInput::PinchPose || i == HandInput::PokePose;
+  return i == HandInput::GripPose || i == HandInput::AimPose || i == HandInput::PinchPose || i == HandInput::PokePose ||
+         i == HandInput::PalmPose;
 }
 
 }  // namespace hs::shim

@@ -170,7 +170,8 @@ void fill_aim(const XrHandJointLocationEXT* joints, XrHandTrackingAimStateFB& ai
 XrPosef hand_input_pose(const XrHandJointLocationEXT* joints, HandInput input) {
   const XrPosef& palm = joints[XR_HAND_JOINT_PALM_EXT].pose;
   switch (input) {
-    case HandInput::GripPose: return palm;
+    case HandInput::GripPose:
+    case HandInput::PalmPose: return palm;
     case HandInput::PokePose: return joints[XR_HAND_JOINT_INDEX_TIP_EXT].pose;
     case HandInput::PinchPose: {
       const Eigen::Vector3d mid = 0.5 * (xr::to_eigen(joints[XR_HAND_JOINT_THUMB_TIP_EXT].pose.position) +

@@ -65,7 +65,7 @@ void fill_aim(const XrHandJointLocationEXT* joints, XrHandTrackingAimStateFB& ai
 Pose scaled_about_wrist(const Pose& p, double scale);
 
 // The pose input's pose from the hand's answered joints (the 26 of the default set, in the
-// space they are answered in): grip at the palm; aim at the index finger's proximal joint,
+// space they are answered in): grip and palm (XR_EXT_palm_pose) at the palm; aim at the index finger's proximal joint,
 // oriented as the palm (as XR_FB_hand_tracking_aim here); pinch between the thumb's and the
 // index finger's tips, oriented as the aim; poke at the index tip, its frame. Garbage
 // joints give a garbage pose (a runtime computing from its own faulty joints).

@@ -83,7 +83,7 @@ struct Runtime {
   bool live = false;
   XrInstance instance = XR_NULL_HANDLE;
   bool ext_hand = false, ext_headless = false, ext_timespec = false, ext_data_source = false, ext_forearm = false,
-       ext_capsules = false, ext_aim = false, ext_mesh = false, ext_hand_interaction = false;
+       ext_capsules = false, ext_aim = false, ext_mesh = false, ext_hand_interaction = false, ext_palm_pose = false;
   ShimConfig cfg;
   std::array<HandSeries, 2> hands;
   std::array<HandSeries, 2> controller_hands;  // the recording uncorrupted, where a controller places it
@@ -224,8 +224,9 @@ struct ExtensionInfo {
   const char* name;
   uint32_t version;
 };
-constexpr std::array<ExtensionInfo, 9> kExtensions = {{
+constexpr std::array<ExtensionInfo, 10> kExtensions = {{
     {kHandInteractionExtension, kHandInteractionSpecVersion},
+    {kPalmPoseExtension, kPalmPoseSpecVersion},
     {XR_EXT_HAND_TRACKING_EXTENSION_NAME, XR_EXT_hand_tracking_SPEC_VERSION},
     {XR_EXT_HAND_TRACKING_DATA_SOURCE_EXTENSION_NAME, XR_EXT_hand_tracking_data_source_SPEC_VERSION},
     {XR_ULTRALEAP_HAND_TRACKING_FOREARM_EXTENSION_NAME, XR_ULTRALEAP_hand_tracking_forearm_SPEC_VERSION},
@@ -264,7 +265,7 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateInstance(const XrInstanceCreateInfo* info, 
   std::lock_guard lock(r.mu);
   if (r.live) return XR_ERROR_LIMIT_REACHED;
   bool hand = false, headless = false, timespec = false, data_source = false, forearm = false, capsules = false,
-       aim = false, mesh = false, hand_interaction = false;
+       aim = false, mesh = false, hand_interaction = false, palm_pose = false;
   for (uint32_t i = 0; i < info->enabledExtensionCount; ++i) {
     const std::string_view name = info->enabledExtensionNames[i];
     if (name == XR_EXT_HAND_TRACKING_EXTENSION_NAME) hand = true;
@@ -274,6 +275,7 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateInstance(const XrInstanceCreateInfo* info, 
     else if (name == XR_FB_HAND_TRACKING_AIM_EXTENSION_NAME) aim = true;
     else if (name == XR_FB_HAND_TRACKING_MESH_EXTENSION_NAME) mesh = true;
     else if (name == kHandInteractionExtension) hand_interaction = true;
+    else if (name == kPalmPoseExtension) palm_pose = true;
     else if (name == XR_MND_HEADLESS_EXTENSION_NAME) headless = true;
     else if (name == XR_KHR_CONVERT_TIMESPEC_TIME_EXTENSION_NAME) timespec = true;
     else return XR_ERROR_EXTENSION_NOT_PRESENT;
@@ -317,6 +319,7 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateInstance(const XrInstanceCreateInfo* info, 
   r.ext_aim = aim;
   r.ext_mesh = mesh;
   r.ext_hand_interaction = hand_interaction;
+  r.ext_palm_pose = palm_pose;
   r.sessions.clear();
   r.spaces.clear();
   r.trackers.clear();
@@ -1103,7 +1106,7 @@ XRAPI_ATTR XrResult XRAPI_CALL SuggestInteractionProfileBindings(
     if (path.empty()) return XR_ERROR_PATH_INVALID;
     if (!hand_profile) continue;  // the simple controller's: accepted, never current
     const auto hb = hand_binding(path);
-    if (!hb) return XR_ERROR_PATH_UNSUPPORTED;
+    if (!hb || (hb->input == HandInput::PalmPose && !r.ext_palm_pose)) return XR_ERROR_PATH_UNSUPPORTED;
     if (is_pose(hb->input) != (action->second.type == XR_ACTION_TYPE_POSE_INPUT)) return XR_ERROR_PATH_UNSUPPORTED;
     bound[action->first].push_back(*hb);
   }

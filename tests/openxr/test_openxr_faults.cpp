@@ -756,10 +756,11 @@ TEST_CASE("the hand interaction profile's poses (XR_EXT_hand_interaction: grip, 
   const TrackFiles f = make_tracks("hand_interaction", 2.0);
   SUBCASE("each pose rides on its joints, before or after the app locates them") {
     each_engine_and_mode(f, [] { set_env("HANDSTEADY_SHIM_HEAD_MOTION", "1"); }, [&](const std::string& engine, const std::string& mode) {
-      App app(true, ext);
-      const HandInteraction hi(app);
+      // With XR_EXT_palm_pose's palm pose too.
+      App app(true, {XR_NOVENDOR_HANDSTEADY_RAW_JOINTS_EXTENSION_NAME, kHandInteractionExt, kPalmPoseExt});
+      const HandInteraction hi(app, true);
       double grip_off = 0.0, grip_turn = 0.0, poke_off = 0.0, poke_turn = 0.0, pinch_off = 0.0, aim_off = 0.0,
-             aim_turn = 0.0, offset_off = 0.0, runtime_sum = 0.0, runtime_max = 0.0;
+             aim_turn = 0.0, offset_off = 0.0, palm_off = 0.0, palm_turn = 0.0, runtime_sum = 0.0, runtime_max = 0.0;
       long located = 0, frames = 0;
       for (int i = 0; i < 120; ++i) {
         const XrTime T = app.frame();
@@ -767,10 +768,11 @@ TEST_CASE("the hand interaction profile's poses (XR_EXT_hand_interaction: grip, 
         for (XrHandEXT hand : {XR_HAND_LEFT_EXT, XR_HAND_RIGHT_EXT}) {
           // Odd frames: the poses first (the layer answers for the hand then), even: the joints first.
           const bool poses_first = i % 2 == 1;
-          std::array<XrSpaceLocation, 5> l{};
+          std::array<XrSpaceLocation, 6> l{};
           const auto locate_poses = [&] {
             for (size_t k = 0; k < 4; ++k) l[k] = locate_space(hi.spaces[hand - 1][k], app.view, T);
             l[4] = locate_space(hi.poke_offset[hand - 1], app.view, T);
+            l[5] = locate_space(hi.palm[hand - 1], app.view, T);
           };
           if (poses_first) locate_poses();
           const Joints j = app.locate(hand, app.view, T);
@@ -793,6 +795,8 @@ TEST_CASE("the hand interaction profile's poses (XR_EXT_hand_interaction: grip, 
           aim_turn = std::max(aim_turn, angle_between(l[kAim].pose.orientation, r.loc[XR_HAND_JOINT_PALM_EXT].pose.orientation));
           const xr::Rigid tip_offset = xr::to_rigid(j.loc[XR_HAND_JOINT_INDEX_TIP_EXT].pose) * xr::to_rigid(hi.offset);
           offset_off = std::max(offset_off, (pos(4) - tip_offset.translation()).norm());
+          palm_off = std::max(palm_off, (pos(5) - at(j, XR_HAND_JOINT_PALM_EXT)).norm());
+          palm_turn = std::max(palm_turn, angle_between(l[5].pose.orientation, j.loc[XR_HAND_JOINT_PALM_EXT].pose.orientation));
           // Where the runtime's poke is: off the drawn finger by the layer's correction.
           const double d = (at(r, XR_HAND_JOINT_INDEX_TIP_EXT) - at(j, XR_HAND_JOINT_INDEX_TIP_EXT)).norm();
           runtime_sum += d;
@@ -803,9 +807,10 @@ TEST_CASE("the hand interaction profile's poses (XR_EXT_hand_interaction: grip, 
                      << " mm (up to " << runtime_max * 1e3 << ") off the answered index tip; the layer's poses off their joints: grip "
                      << grip_off * 1e3 << " mm " << grip_turn << " rad, poke " << poke_off * 1e3 << " mm " << poke_turn
                      << " rad, pinch " << pinch_off * 1e3 << " mm, aim off the palm's offset " << aim_off * 1e3
-                     << " mm " << aim_turn << " rad, poke with an offset " << offset_off * 1e3 << " mm");
+                     << " mm " << aim_turn << " rad, poke with an offset " << offset_off * 1e3 << " mm, palm "
+                     << palm_off * 1e3 << " mm " << palm_turn << " rad");
       CHECK(frames == 240);
-      CHECK(located == 240 * 5);
+      CHECK(located == 240 * 6);
       CHECK(runtime_max > 1e-3);  // the layer did move the hand
       CHECK(grip_off < 1e-5);
       CHECK(grip_turn < 1e-3);
@@ -815,6 +820,8 @@ TEST_CASE("the hand interaction profile's poses (XR_EXT_hand_interaction: grip, 
       CHECK(aim_off < 1e-5);
       CHECK(aim_turn < 1e-3);
       CHECK(offset_off < 1e-5);
+      CHECK(palm_off < 1e-5);
+      CHECK(palm_turn < 1e-3);
       app.shutdown();
     });
   }

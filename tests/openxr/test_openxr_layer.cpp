@@ -157,6 +157,15 @@ TEST_CASE("the replay runtime's hand interaction profile (XR_EXT_hand_interactio
   XrActionSuggestedBinding b{value, trigger};
   const XrInteractionProfileSuggestedBinding sb{XR_TYPE_INTERACTION_PROFILE_SUGGESTED_BINDING, nullptr, profile, 1, &b};
   CHECK(xrSuggestInteractionProfileBindings(app.instance, &sb) == XR_ERROR_PATH_UNSUPPORTED);
+  // XR_EXT_palm_pose's palm only where the app enabled that extension (not here).
+  XrAction palm = XR_NULL_HANDLE;
+  XrActionCreateInfo pi{XR_TYPE_ACTION_CREATE_INFO, nullptr, "palm", XR_ACTION_TYPE_POSE_INPUT, 0, nullptr, "Palm"};
+  REQUIRE(xrCreateAction(other, &pi, &palm) == XR_SUCCESS);
+  XrPath palm_path = XR_NULL_PATH;
+  REQUIRE(xrStringToPath(app.instance, "/user/hand/left/input/palm_ext/pose", &palm_path) == XR_SUCCESS);
+  const XrActionSuggestedBinding pb{palm, palm_path};
+  const XrInteractionProfileSuggestedBinding psb{XR_TYPE_INTERACTION_PROFILE_SUGGESTED_BINDING, nullptr, profile, 1, &pb};
+  CHECK(xrSuggestInteractionProfileBindings(app.instance, &psb) == XR_ERROR_PATH_UNSUPPORTED);
   b.action = hi.actions[kGrip];
   CHECK(xrSuggestInteractionProfileBindings(app.instance, &sb) == XR_ERROR_ACTIONSETS_ALREADY_ATTACHED);
   const XrSessionActionSetsAttachInfo at{XR_TYPE_SESSION_ACTION_SETS_ATTACH_INFO, nullptr, 1, &other};

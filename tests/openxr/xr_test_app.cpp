@@ -296,7 +296,7 @@ XrPath to_path(XrInstance instance, const std::string& str) {
 }
 }  // namespace
 
-HandInteraction::HandInteraction(const App& app) {
+HandInteraction::HandInteraction(const App& app, bool with_palm) {
   constexpr std::array<const char*, 4> kNames = {"grip", "aim", "pinch_ext", "poke_ext"};
   XrActionSetCreateInfo si{XR_TYPE_ACTION_SET_CREATE_INFO, nullptr, "hands", "Hands", 0};
   REQUIRE(xrCreateActionSet(app.instance, &si, &set) == XR_SUCCESS);
@@ -310,6 +310,12 @@ HandInteraction::HandInteraction(const App& app) {
     for (const char* side : {"left", "right"})
       bindings.push_back(
           {actions[k], to_path(app.instance, std::string("/user/hand/") + side + "/input/" + kNames[k] + "/pose")});
+  }
+  if (with_palm) {
+    XrActionCreateInfo ai{XR_TYPE_ACTION_CREATE_INFO, nullptr, "palm", XR_ACTION_TYPE_POSE_INPUT, 2, hands.data(), "Palm"};
+    REQUIRE(xrCreateAction(set, &ai, &palm_action) == XR_SUCCESS);
+    for (const char* side : {"left", "right"})
+      bindings.push_back({palm_action, to_path(app.instance, std::string("/user/hand/") + side + "/input/palm_ext/pose")});
   }
   const XrInteractionProfileSuggestedBinding sb{XR_TYPE_INTERACTION_PROFILE_SUGGESTED_BINDING, nullptr,
                                                 to_path(app.instance, "/interaction_profiles/ext/hand_interaction_ext"),
@@ -325,6 +331,11 @@ HandInteraction::HandInteraction(const App& app) {
     }
     const XrActionSpaceCreateInfo ci{XR_TYPE_ACTION_SPACE_CREATE_INFO, nullptr, actions[kPoke], hands[h], offset};
     REQUIRE(xrCreateActionSpace(app.session, &ci, &poke_offset[h]) == XR_SUCCESS);
+    if (with_palm) {
+      const XrActionSpaceCreateInfo pi{XR_TYPE_ACTION_SPACE_CREATE_INFO, nullptr, palm_action, hands[h],
+                                       {{0, 0, 0, 1}, {0, 0, 0}}};
+      REQUIRE(xrCreateActionSpace(app.session, &pi, &palm[h]) == XR_SUCCESS);
+    }
   }
 }
 

@@ -103,18 +103,22 @@ class App {
 // XR_EXT_hand_interaction's four poses for both hands, set up as an app does: an action
 // set, a pose action per input with both hands as subaction paths, the profile's bindings
 // (/interaction_profiles/ext/hand_interaction_ext), an action space per hand and pose, and
-// one more poke space per hand with `offset` in the action's pose. The App must have been
-// created with the extension.
+// one more poke space per hand with `offset` in the action's pose; with `palm`, also
+// XR_EXT_palm_pose's palm pose (an action and a space per hand). The App must have been
+// created with the extension(s).
 constexpr const char* kHandInteractionExt = "XR_EXT_hand_interaction";
+constexpr const char* kPalmPoseExt = "XR_EXT_palm_pose";
 enum HandPoseIndex { kGrip, kAim, kPinch, kPoke };
 struct HandInteraction {
-  explicit HandInteraction(const App& app);
+  explicit HandInteraction(const App& app, bool palm = false);
   void sync(const App& app) const;  // xrSyncActions of the set
 
   XrActionSet set = XR_NULL_HANDLE;
   std::array<XrAction, 4> actions{};               // [HandPoseIndex]
   std::array<std::array<XrSpace, 4>, 2> spaces{};  // [hand - 1][HandPoseIndex]
   std::array<XrSpace, 2> poke_offset{};            // [hand - 1]
+  XrAction palm_action = XR_NULL_HANDLE;
+  std::array<XrSpace, 2> palm{};                   // [hand - 1]
   // 2 cm along the tip's -Z, turned 30 degrees about its X.
   const XrPosef offset{{0.258819f, 0.0f, 0.0f, 0.965926f}, {0.0f, 0.0f, -0.02f}};
 };
