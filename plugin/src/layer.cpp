@@ -783,7 +783,9 @@ XRAPI_ATTR XrResult XRAPI_CALL SuggestInteractionProfileBindings(
   const auto inst = find_shared(reg().instances, instance);
   if (!inst || !inst->SuggestInteractionProfileBindings) return XR_ERROR_HANDLE_INVALID;
   const XrResult res = inst->SuggestInteractionProfileBindings(instance, suggested);
-  if (XR_FAILED(res) || suggested->interactionProfile != inst->hand_profile) return res;
+  // (A runtime that let an invalid suggestion through is not followed into it.)
+  if (XR_FAILED(res) || !suggested || !suggested->suggestedBindings || suggested->interactionProfile != inst->hand_profile)
+    return res;
   try {
     // A suggestion replaces the profile's earlier one (the loader allows one instance).
     std::unique_lock lock(reg().mu);
@@ -807,7 +809,7 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateActionSpace(XrSession session, const XrActi
     return any && any->CreateActionSpace ? any->CreateActionSpace(session, info, space) : XR_ERROR_HANDLE_INVALID;
   }
   const XrResult res = inst->CreateActionSpace(session, info, space);
-  if (XR_FAILED(res)) return res;
+  if (XR_FAILED(res) || !info || !space) return res;
   int hand = -1;
   if (info->subactionPath != XR_NULL_PATH) {
     if (info->subactionPath == inst->user_hand[0]) hand = 0;
@@ -1117,8 +1119,8 @@ void load(const InstanceData& d, const char* name, PFN& dst) {
 }
 
 // XR_EXT_hand_interaction's functions and paths for the layer; false (its poses pass
-// through) where the runtime lacks one.
-bool load_hand_interaction(InstanceData& d) noexcept {
+// through) where the runtime lacks one. May throw (allocation): the caller catches.
+bool load_hand_interaction(InstanceData& d) {
   PFN_xrStringToPath to_path = nullptr;
   load(d, "xrStringToPath", to_path);
   load(d, "xrSuggestInteractionProfileBindings", d.SuggestInteractionProfileBindings);
