@@ -674,6 +674,14 @@ bool world_joints(const Runtime& r, int h, XrTime time, std::array<XrHandJointLo
 
 // ---------------------------------------------------------------- spaces
 
+// A pose an app may give a space: a finite position, a unit orientation (within 1e-3 in
+// squared norm); else XR_ERROR_POSE_INVALID.
+bool valid_pose(const XrPosef& p) {
+  const XrQuaternionf& q = p.orientation;
+  const float n = q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w;
+  return xr::finite(p.position) && std::isfinite(n) && std::fabs(n - 1.0f) <= 1e-3f;
+}
+
 constexpr std::array<XrReferenceSpaceType, 3> kSpaceTypes = {
     XR_REFERENCE_SPACE_TYPE_VIEW, XR_REFERENCE_SPACE_TYPE_LOCAL, XR_REFERENCE_SPACE_TYPE_STAGE};
 
@@ -693,10 +701,7 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateReferenceSpace(XrSession session, const XrR
   if (!info || !space || info->type != XR_TYPE_REFERENCE_SPACE_CREATE_INFO) return XR_ERROR_VALIDATION_FAILURE;
   if (std::find(kSpaceTypes.begin(), kSpaceTypes.end(), info->referenceSpaceType) == kSpaceTypes.end())
     return XR_ERROR_REFERENCE_SPACE_UNSUPPORTED;
-  const XrQuaternionf& q = info->poseInReferenceSpace.orientation;
-  const float n = q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w;
-  if (!xr::finite(info->poseInReferenceSpace.position) || !std::isfinite(n) || std::fabs(n - 1.0f) > 1e-3f)
-    return XR_ERROR_POSE_INVALID;
+  if (!valid_pose(info->poseInReferenceSpace)) return XR_ERROR_POSE_INVALID;
   const XrSpace s = handle_of<XrSpace>(r.next_handle++);
   r.spaces[id_of(s)] = SpaceData{session, info->referenceSpaceType, xr::to_rigid(info->poseInReferenceSpace)};
   *space = s;
@@ -1177,6 +1182,11 @@ XRAPI_ATTR XrResult XRAPI_CALL SyncActions(XrSession session, const XrActionsSyn
   return XR_SUCCESS;
 }
 
+// Whether an action was created with this subaction path (none given: any).
+bool allows_subaction(const ActionData& a, XrPath subaction) {
+  return subaction == XR_NULL_PATH || std::find(a.subactions.begin(), a.subactions.end(), subaction) != a.subactions.end();
+}
+
 // The action of an action-state query, checked against its subaction path.
 XrResult checked_action(Runtime& r, XrSession session, const XrActionStateGetInfo* info, XrActionType type,
                         const ActionData*& action) {
@@ -1187,9 +1197,7 @@ XrResult checked_action(Runtime& r, XrSession session, const XrActionStateGetInf
   if (it == r.actions.end()) return XR_ERROR_HANDLE_INVALID;
   if (!r.action_sets[it->second.set] || !s->attached) return XR_ERROR_ACTIONSET_NOT_ATTACHED;
   if (it->second.type != type) return XR_ERROR_ACTION_TYPE_MISMATCH;
-  const auto& subs = it->second.subactions;
-  if (info->subactionPath != XR_NULL_PATH && std::find(subs.begin(), subs.end(), info->subactionPath) == subs.end())
-    return XR_ERROR_PATH_UNSUPPORTED;
+  if (!allows_subaction(it->second, info->subactionPath)) return XR_ERROR_PATH_UNSUPPORTED;
   action = &it->second;
   return XR_SUCCESS;
 }
@@ -1282,13 +1290,8 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateActionSpace(XrSession session, const XrActi
   const auto it = r.actions.find(id_of(info->action));
   if (it == r.actions.end()) return XR_ERROR_HANDLE_INVALID;
   if (it->second.type != XR_ACTION_TYPE_POSE_INPUT) return XR_ERROR_ACTION_TYPE_MISMATCH;
-  const auto& subs = it->second.subactions;
-  if (info->subactionPath != XR_NULL_PATH && std::find(subs.begin(), subs.end(), info->subactionPath) == subs.end())
-    return XR_ERROR_PATH_UNSUPPORTED;
-  const XrQuaternionf& q = info->poseInActionSpace.orientation;
-  const float n = q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w;
-  if (!xr::finite(info->poseInActionSpace.position) || !std::isfinite(n) || std::fabs(n - 1.0f) > 1e-3f)
-    return XR_ERROR_POSE_INVALID;
+  if (!allows_subaction(it->second, info->subactionPath)) return XR_ERROR_PATH_UNSUPPORTED;
+  if (!valid_pose(info->poseInActionSpace)) return XR_ERROR_POSE_INVALID;
   const XrSpace s = handle_of<XrSpace>(r.next_handle++);
   r.spaces[id_of(s)] = SpaceData{session, XR_REFERENCE_SPACE_TYPE_VIEW, xr::to_rigid(info->poseInActionSpace),
                                  it->first, info->subactionPath};
